@@ -1,0 +1,5 @@
+//! densepack: dense random packings of hard particles.
+#![warn(missing_docs)]
+
+pub mod protocol;
+pub mod queue;

@@ -1,0 +1,4 @@
+//! Protocols that drive or seed the kernel: random sequential addition, the grading-curve
+//! take phase.
+
+pub mod take_phase;

@@ -1,0 +1,1 @@
+//! Grading curves and the take phase (to be written).
