@@ -1,0 +1,4 @@
+//! Files: scene descriptions in, packings out.
+
+pub mod packing;
+pub mod scene;

@@ -1,0 +1,172 @@
+//! The packing JSON file (`"format": "densepack-packing"`, version 1), read by other tools.
+//!
+//! ```json
+//! {"format": "densepack-packing", "version": 1,
+//!  "container": {"type": "box", "min": [0,0,0], "max": [10,10,10], "periodic": [true,true,true]},
+//!  "particles": [{"type": "sphere", "center": [1.0, 2.0, 3.0], "radius": 0.5}],
+//!  "min_gap": 0.0, "seed": 42,
+//!  "stats": {"packing_fraction": 0.64, "reduced_pressure": 1e12, "events": 1, "collisions": 1,
+//!            "wall_seconds": 0.1, "stop_reason": "jammed"}}
+//! ```
+//! Floats are written with full round-trip precision (shortest representation that parses
+//! back to the same `f64`); periodic centres are wrapped into the box.
+
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// The container of a packing.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum ContainerRecord {
+    /// Axis-aligned box, periodic or walled per axis.
+    Box {
+        /// Lower corner.
+        min: [f64; 3],
+        /// Upper corner.
+        max: [f64; 3],
+        /// Periodic axes.
+        periodic: [bool; 3],
+    },
+    /// Cylinder with its axis along z.
+    Cylinder {
+        /// Centre of the bottom cap.
+        base_center: [f64; 3],
+        /// Radius.
+        radius: f64,
+        /// Height.
+        height: f64,
+    },
+}
+
+/// One particle of a packing.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum ParticleRecord {
+    /// A sphere.
+    Sphere {
+        /// Centre.
+        center: [f64; 3],
+        /// Radius.
+        radius: f64,
+    },
+}
+
+/// Run statistics stored with a packing.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PackingStats {
+    /// Packing fraction of the written particles.
+    pub packing_fraction: f64,
+    /// Reduced pressure `PV/NkT` (time average for equilibrium runs, last interval for growth).
+    pub reduced_pressure: f64,
+    /// Processed events.
+    pub events: u64,
+    /// Pair collisions.
+    pub collisions: u64,
+    /// Wall-clock seconds of the simulation.
+    pub wall_seconds: f64,
+    /// Why the last stage stopped.
+    pub stop_reason: String,
+    /// Further observables (collisions per particle, events by kind, events per second,
+    /// per-stage reports).
+    #[serde(flatten)]
+    pub extra: serde_json::Map<String, serde_json::Value>,
+}
+
+/// A packing file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Packing {
+    /// Always `"densepack-packing"`.
+    pub format: String,
+    /// Format version, 1.
+    pub version: u32,
+    /// The container.
+    pub container: ContainerRecord,
+    /// The particles.
+    pub particles: Vec<ParticleRecord>,
+    /// Guaranteed smallest surface-to-surface gap between particles (and half of it to walls).
+    pub min_gap: f64,
+    /// Seed of the run.
+    pub seed: u64,
+    /// Statistics.
+    pub stats: PackingStats,
+}
+
+/// Format name written into every packing.
+pub const FORMAT: &str = "densepack-packing";
+
+/// Errors reading or writing a packing file.
+#[derive(Debug, thiserror::Error)]
+pub enum PackingError {
+    /// I/O failure.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// Not a valid packing file.
+    #[error("{path}: not a densepack packing: {message}")]
+    Format {
+        /// The file.
+        path: String,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+impl Packing {
+    /// Reads and checks a packing file.
+    pub fn read(path: &Path) -> Result<Self, PackingError> {
+        let text = std::fs::read_to_string(path).map_err(|source| PackingError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        let format_err = |message: String| PackingError::Format {
+            path: path.display().to_string(),
+            message,
+        };
+        let packing: Packing = serde_json::from_str(&text).map_err(|e| format_err(e.to_string()))?;
+        if packing.format != FORMAT || packing.version != 1 {
+            return Err(format_err(format!(
+                "format {:?} version {} (expected {FORMAT:?} version 1)",
+                packing.format, packing.version
+            )));
+        }
+        Ok(packing)
+    }
+
+    /// Writes the packing atomically: to a temporary file beside `path`, then renamed, so an
+    /// existing file is never left half-written.
+    pub fn write(&self, path: &Path) -> Result<(), PackingError> {
+        let text = serde_json::to_string_pretty(self).expect("a packing always serialises");
+        write_atomically(path, text.as_bytes()).map_err(|source| PackingError::Io {
+            path: path.display().to_string(),
+            source,
+        })
+    }
+}
+
+/// Writes `bytes` to `path` through a temporary file in the same directory and a rename.
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    use std::io::Write;
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "packing".into());
+    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}

@@ -1,0 +1,472 @@
+//! Scene files (TOML): what to pack and how.
+//!
+//! Lengths are in the scene's own unit (millimetres for concrete scenes; any unit for
+//! dimensionless studies): every length in a packing is in the same unit. Time is in units
+//! where `kT = temperature` and a particle of the mean initial volume has mass 1.
+//!
+//! ```toml
+//! seed = 42
+//! queue = "calendar"            # or "heap"
+//! mass = "equal"                # or "volume" (mass ∝ d³)
+//!
+//! [container]
+//! type = "box"                  # or "cylinder" (base_center, radius, height; axis along z)
+//! size = [20.0, 20.0, 20.0]
+//! periodic = [true, true, true] # walls on the axes that are not periodic
+//!
+//! [particles]
+//! count = 1000
+//! diameter = 1.0                # or components = [{ count = 500, diameter = 1.0 }, ...]
+//! packing_fraction = 0.3        # seeding fraction: diameters scaled to give it, placed by RSA
+//!
+//! [[stage]]
+//! growth = "relative"           # "none" | "relative" (1/time) | "absolute" (length/time)
+//! rate = 0.02
+//! until = { reduced_pressure = 1e12 }
+//! ```
+//!
+//! Every table rejects unknown keys; [`Scene::validate`] names the offending field and its
+//! allowed range.
+
+use crate::kernel::{Limits, Stage, Until};
+use crate::queue::QueueKind;
+use crate::shape::{Growth, MassRule};
+use serde::Deserialize;
+
+/// A scene file.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// Seed of the random generator (Xoshiro256++).
+    pub seed: u64,
+    /// Event queue.
+    #[serde(default)]
+    pub queue: QueueKind,
+    /// Mass rule.
+    #[serde(default)]
+    pub mass: MassRule,
+    /// Temperature `kT` of the velocities (default 1).
+    #[serde(default = "default_temperature")]
+    pub temperature: f64,
+    /// Target events per particle between time barriers (default 4; see BENCHMARKS.md).
+    #[serde(default = "default_events_per_interval")]
+    pub events_per_particle_per_interval: f64,
+    /// The container.
+    pub container: ContainerSpec,
+    /// The particles.
+    pub particles: ParticlesSpec,
+    /// The stages, run in order.
+    #[serde(rename = "stage")]
+    pub stages: Vec<StageSpec>,
+}
+
+fn default_temperature() -> f64 {
+    1.0
+}
+
+fn default_events_per_interval() -> f64 {
+    4.0
+}
+
+/// The container of a scene.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum ContainerSpec {
+    /// An axis-aligned box.
+    Box {
+        /// Lower corner (default origin).
+        #[serde(default)]
+        min: [f64; 3],
+        /// Edge lengths.
+        size: [f64; 3],
+        /// Periodic axes; the others have rigid walls.
+        periodic: [bool; 3],
+    },
+    /// A cylinder with its axis along z.
+    Cylinder {
+        /// Centre of the bottom cap (default origin).
+        #[serde(default)]
+        base_center: [f64; 3],
+        /// Radius.
+        radius: f64,
+        /// Height.
+        height: f64,
+    },
+}
+
+/// One size class of particles.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Component {
+    /// Number of spheres.
+    pub count: usize,
+    /// Diameter.
+    pub diameter: f64,
+}
+
+/// The particles of a scene.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ParticlesSpec {
+    /// Number of equal spheres (with `diameter`).
+    pub count: Option<usize>,
+    /// Diameter of the equal spheres.
+    pub diameter: Option<f64>,
+    /// Size classes (instead of `count` and `diameter`).
+    pub components: Option<Vec<Component>>,
+    /// Packing fraction at seeding: all diameters are scaled by one factor to give it.
+    /// Without it the diameters are used as given.
+    pub packing_fraction: Option<f64>,
+    /// Consecutive RSA rejections of one sphere before seeding fails (default 10⁶).
+    #[serde(default = "default_rsa_failures")]
+    pub rsa_max_failures: u64,
+}
+
+fn default_rsa_failures() -> u64 {
+    1_000_000
+}
+
+/// Goal of a stage.
+#[derive(Clone, Debug, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct UntilSpec {
+    /// Packing fraction to reach.
+    pub packing_fraction: Option<f64>,
+    /// Reduced pressure to reach (jamming).
+    pub reduced_pressure: Option<f64>,
+    /// Simulated time to run.
+    pub time: Option<f64>,
+    /// Pair collisions per particle to run.
+    pub collisions_per_particle: Option<f64>,
+}
+
+/// Growth protocol names.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum GrowthKind {
+    /// No growth.
+    None,
+    /// Rate relative to each particle's size (1/time).
+    Relative,
+    /// Absolute radius rate (length/time).
+    Absolute,
+}
+
+/// A stage of a scene.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct StageSpec {
+    /// Growth protocol.
+    pub growth: GrowthKind,
+    /// Growth rate (required unless `growth = "none"`).
+    pub rate: Option<f64>,
+    /// Goal.
+    pub until: UntilSpec,
+    /// Most events (failure when hit).
+    pub max_events: Option<u64>,
+    /// Most wall-clock seconds (failure when hit).
+    pub max_wall_seconds: Option<f64>,
+    /// Stall criterion ε: failure when simulated time advances less than ε over 1000 events.
+    pub stall_epsilon: Option<f64>,
+    /// Rescale velocities to the temperature at barriers (default: on when growing).
+    pub thermostat: Option<bool>,
+}
+
+/// A scene that cannot be run, naming the field.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum SceneError {
+    /// The file is not valid TOML or does not match the schema (unknown key, wrong type).
+    #[error("{0}")]
+    Parse(String),
+    /// A field is out of its allowed range.
+    #[error("{field}: {message}")]
+    Invalid {
+        /// The offending field, dotted (`particles.packing_fraction`).
+        field: String,
+        /// What is wrong and what is allowed.
+        message: String,
+    },
+}
+
+fn invalid(field: impl Into<String>, message: impl Into<String>) -> SceneError {
+    SceneError::Invalid {
+        field: field.into(),
+        message: message.into(),
+    }
+}
+
+fn positive(field: &str, x: f64) -> Result<(), SceneError> {
+    if x.is_finite() && x > 0.0 {
+        Ok(())
+    } else {
+        Err(invalid(field, format!("= {x} must be a finite number > 0")))
+    }
+}
+
+fn fraction(field: &str, x: f64) -> Result<(), SceneError> {
+    if x.is_finite() && x > 0.0 && x < 1.0 {
+        Ok(())
+    } else {
+        Err(invalid(field, format!("= {x} is outside the allowed range (0, 1)")))
+    }
+}
+
+/// Densest possible packing fraction of equal spheres (Kepler, fcc/hcp): no monodisperse
+/// scene can grow past it, which bounds the largest diameter a growth run can reach.
+pub const KEPLER_FRACTION: f64 = 0.740_480_489_693_061;
+
+impl Scene {
+    /// Parses a scene from TOML text and validates it.
+    pub fn from_toml(text: &str) -> Result<Self, SceneError> {
+        let scene: Scene = toml::from_str(text).map_err(|e| SceneError::Parse(e.to_string()))?;
+        scene.validate()?;
+        Ok(scene)
+    }
+
+    /// The diameters of all spheres as written in the scene (before seeding scale).
+    pub fn diameters(&self) -> Vec<f64> {
+        let p = &self.particles;
+        match &p.components {
+            Some(cs) => cs
+                .iter()
+                .flat_map(|c| std::iter::repeat_n(c.diameter, c.count))
+                .collect(),
+            None => vec![p.diameter.unwrap_or(0.0); p.count.unwrap_or(0)],
+        }
+    }
+
+    /// Volume of the container.
+    pub fn container_volume(&self) -> f64 {
+        match &self.container {
+            ContainerSpec::Box { size, .. } => size[0] * size[1] * size[2],
+            ContainerSpec::Cylinder { radius, height, .. } => {
+                std::f64::consts::PI * radius * radius * height
+            }
+        }
+    }
+
+    /// Checks every field against its allowed range.
+    pub fn validate(&self) -> Result<(), SceneError> {
+        positive("temperature", self.temperature)?;
+        positive(
+            "events_per_particle_per_interval",
+            self.events_per_particle_per_interval,
+        )?;
+        // Container.
+        let (smallest_extent, periodic_extent) = match &self.container {
+            ContainerSpec::Box {
+                min,
+                size,
+                periodic,
+            } => {
+                for k in 0..3 {
+                    positive(&format!("container.size[{k}]"), size[k])?;
+                    if !min[k].is_finite() {
+                        return Err(invalid(format!("container.min[{k}]"), "must be finite"));
+                    }
+                }
+                let smallest = size.iter().copied().fold(f64::INFINITY, f64::min);
+                let periodic_min = (0..3)
+                    .filter(|&k| periodic[k])
+                    .map(|k| size[k])
+                    .fold(f64::INFINITY, f64::min);
+                (smallest, periodic_min)
+            }
+            ContainerSpec::Cylinder {
+                base_center,
+                radius,
+                height,
+            } => {
+                positive("container.radius", *radius)?;
+                positive("container.height", *height)?;
+                if base_center.iter().any(|x| !x.is_finite()) {
+                    return Err(invalid("container.base_center", "must be finite"));
+                }
+                ((2.0 * radius).min(*height), f64::INFINITY)
+            }
+        };
+        // Particles.
+        let p = &self.particles;
+        match (&p.components, p.count, p.diameter) {
+            (Some(cs), None, None) => {
+                if cs.is_empty() {
+                    return Err(invalid("particles.components", "needs at least one component"));
+                }
+                for (k, c) in cs.iter().enumerate() {
+                    if c.count == 0 {
+                        return Err(invalid(
+                            format!("particles.components[{k}].count"),
+                            "= 0 must be ≥ 1",
+                        ));
+                    }
+                    positive(&format!("particles.components[{k}].diameter"), c.diameter)?;
+                }
+            }
+            (None, Some(count), Some(d)) => {
+                if count == 0 {
+                    return Err(invalid("particles.count", "= 0 must be ≥ 1"));
+                }
+                positive("particles.diameter", d)?;
+            }
+            _ => {
+                return Err(invalid(
+                    "particles",
+                    "give either `count` and `diameter`, or `components`",
+                ))
+            }
+        }
+        if p.rsa_max_failures == 0 {
+            return Err(invalid("particles.rsa_max_failures", "= 0 must be ≥ 1"));
+        }
+        let diameters = self.diameters();
+        let volume: f64 = diameters
+            .iter()
+            .map(|d| std::f64::consts::PI / 6.0 * d.powi(3))
+            .sum();
+        let container = self.container_volume();
+        let mut scale = 1.0;
+        if let Some(phi) = p.packing_fraction {
+            fraction("particles.packing_fraction", phi)?;
+            scale = (phi * container / volume).cbrt();
+        } else if volume / container >= 1.0 {
+            return Err(invalid(
+                "particles",
+                format!(
+                    "the spheres fill {:.3} of the container; the packing fraction must be < 1",
+                    volume / container
+                ),
+            ));
+        }
+        let d_max = diameters.iter().copied().fold(0.0, f64::max) * scale;
+        if d_max >= smallest_extent {
+            return Err(invalid(
+                "particles",
+                format!(
+                    "the largest sphere (diameter {d_max}) does not fit the container \
+                     (smallest extent {smallest_extent})"
+                ),
+            ));
+        }
+        // Stages.
+        if self.stages.is_empty() {
+            return Err(invalid("stage", "at least one [[stage]] is required"));
+        }
+        let mut grows = false;
+        for (k, s) in self.stages.iter().enumerate() {
+            let f = |name: &str| format!("stage[{k}].{name}");
+            match (s.growth, s.rate) {
+                (GrowthKind::None, Some(_)) => {
+                    return Err(invalid(f("rate"), "is not allowed with growth = \"none\""))
+                }
+                (GrowthKind::None, None) => {}
+                (_, None) => return Err(invalid(f("rate"), "is required when the particles grow")),
+                (_, Some(r)) => {
+                    positive(&f("rate"), r)?;
+                    grows = true;
+                }
+            }
+            let u = &s.until;
+            if u.packing_fraction.is_none()
+                && u.reduced_pressure.is_none()
+                && u.time.is_none()
+                && u.collisions_per_particle.is_none()
+            {
+                return Err(invalid(
+                    f("until"),
+                    "needs a goal: packing_fraction, reduced_pressure, time or collisions_per_particle",
+                ));
+            }
+            if let Some(x) = u.packing_fraction {
+                fraction(&f("until.packing_fraction"), x)?;
+                if s.growth == GrowthKind::None {
+                    return Err(invalid(
+                        f("until.packing_fraction"),
+                        "cannot be reached without growth",
+                    ));
+                }
+            }
+            if let Some(x) = u.reduced_pressure {
+                if !(x.is_finite() && x > 1.0) {
+                    return Err(invalid(
+                        f("until.reduced_pressure"),
+                        format!("= {x} must be a finite number > 1"),
+                    ));
+                }
+            }
+            if let Some(x) = u.time {
+                positive(&f("until.time"), x)?;
+            }
+            if let Some(x) = u.collisions_per_particle {
+                positive(&f("until.collisions_per_particle"), x)?;
+            }
+            if let Some(x) = s.max_wall_seconds {
+                positive(&f("max_wall_seconds"), x)?;
+            }
+            if s.max_events == Some(0) {
+                return Err(invalid(f("max_events"), "= 0 must be ≥ 1"));
+            }
+            if let Some(x) = s.stall_epsilon {
+                if !(x.is_finite() && x >= 0.0) {
+                    return Err(invalid(f("stall_epsilon"), format!("= {x} must be ≥ 0")));
+                }
+            }
+        }
+        // Minimum image needs every contact distance below half the periodic box length.
+        // Growth can at most reach the Kepler fraction for equal spheres; bound the final
+        // diameter by it (polydisperse scenes by the same scale, a conservative estimate).
+        if periodic_extent.is_finite() {
+            let mut final_phi = p.packing_fraction.unwrap_or(volume / container);
+            if grows {
+                final_phi = self
+                    .stages
+                    .iter()
+                    .filter_map(|s| s.until.packing_fraction)
+                    .fold(final_phi, f64::max);
+                if self.stages.iter().any(|s| {
+                    s.growth != GrowthKind::None && s.until.packing_fraction.is_none()
+                }) {
+                    final_phi = final_phi.max(KEPLER_FRACTION);
+                }
+            }
+            let d_final = d_max * (final_phi / (volume * scale.powi(3) / container)).cbrt();
+            if 2.0 * d_final >= periodic_extent {
+                return Err(invalid(
+                    "container.size",
+                    format!(
+                        "a periodic box edge must exceed twice the largest diameter the run can \
+                         reach ({:.4}); give at least {:.4} or use more, smaller particles",
+                        d_final,
+                        2.0 * d_final
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl StageSpec {
+    /// The kernel stage this spec describes.
+    pub fn to_stage(&self) -> Stage {
+        let growth = match (self.growth, self.rate) {
+            (GrowthKind::Relative, Some(r)) => Growth::Relative(r),
+            (GrowthKind::Absolute, Some(r)) => Growth::Absolute(r),
+            _ => Growth::None,
+        };
+        Stage {
+            growth,
+            until: Until {
+                packing_fraction: self.until.packing_fraction,
+                reduced_pressure: self.until.reduced_pressure,
+                time: self.until.time,
+                collisions_per_particle: self.until.collisions_per_particle,
+            },
+            limits: Limits {
+                events: self.max_events.unwrap_or(u64::MAX),
+                wall_seconds: self.max_wall_seconds,
+                stall_epsilon: self.stall_epsilon.unwrap_or(0.0),
+            },
+            thermostat: self.thermostat.unwrap_or(growth != Growth::None),
+        }
+    }
+}

@@ -1,0 +1,342 @@
+//! Stages: one growth protocol run until a stop criterion.
+
+use super::{Edmd, EventBudget, EventCounts};
+use crate::boundary::Boundary;
+use crate::queue::EventQueue;
+use crate::shape::{Collidable, Growth};
+
+/// When a stage has reached its goal (first criterion met wins). All are optional; a stage
+/// with none runs until a [`Limits`] entry stops it, which counts as failure.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Until {
+    /// Stop when the packing fraction reaches this value (exactly: the barrier is placed at
+    /// the time the growing sizes give this fraction).
+    pub packing_fraction: Option<f64>,
+    /// Stop when the reduced pressure `Z` of a barrier interval reaches this value
+    /// (jamming; 1e12 is the usual threshold).
+    pub reduced_pressure: Option<f64>,
+    /// Stop after this much simulated time.
+    pub time: Option<f64>,
+    /// Stop after this many pair collisions per particle.
+    pub collisions_per_particle: Option<f64>,
+}
+
+/// Limits whose firing means the stage failed.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Limits {
+    /// Most events the stage may process.
+    pub events: u64,
+    /// Most wall-clock seconds the stage may take.
+    pub wall_seconds: Option<f64>,
+    /// Stall criterion of paper 001: fail when the simulated time advances less than this
+    /// over 1000 events. Zero still fails a run whose time does not advance at all.
+    pub stall_epsilon: f64,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Self {
+            events: u64::MAX,
+            wall_seconds: None,
+            stall_epsilon: 0.0,
+        }
+    }
+}
+
+/// One stage of a run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Stage {
+    /// Growth protocol.
+    pub growth: Growth,
+    /// Goal.
+    pub until: Until,
+    /// Failure limits.
+    pub limits: Limits,
+    /// Rescale velocities to the set temperature at every barrier. Growth heats the system,
+    /// so growth stages want it; equilibrium stages conserve energy without it.
+    pub thermostat: bool,
+}
+
+/// Why a stage stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    /// The requested packing fraction was reached.
+    PackingFractionReached,
+    /// The reduced pressure passed its threshold: jammed.
+    Jammed,
+    /// The requested simulated time passed.
+    TimeReached,
+    /// The requested number of collisions per particle was processed.
+    CollisionsReached,
+    /// Simulated time stopped advancing (Δt < ε over 1000 events).
+    Stalled,
+    /// The event limit was hit.
+    EventLimit,
+    /// The wall-clock limit was hit.
+    WallClockLimit,
+    /// The goal cannot be reached by this stage (e.g. a packing fraction without growth).
+    Unreachable,
+}
+
+impl StopReason {
+    /// Whether the stage reached its goal.
+    pub fn is_success(self) -> bool {
+        matches!(
+            self,
+            Self::PackingFractionReached
+                | Self::Jammed
+                | Self::TimeReached
+                | Self::CollisionsReached
+        )
+    }
+
+    /// The snake-case name used in outputs.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::PackingFractionReached => "packing_fraction_reached",
+            Self::Jammed => "jammed",
+            Self::TimeReached => "time_reached",
+            Self::CollisionsReached => "collisions_reached",
+            Self::Stalled => "stalled",
+            Self::EventLimit => "event_limit",
+            Self::WallClockLimit => "wall_clock_limit",
+            Self::Unreachable => "unreachable",
+        }
+    }
+}
+
+/// What a stage did.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct StageReport {
+    /// Why it stopped.
+    pub stop_reason: StopReason,
+    /// Events of this stage, by kind.
+    pub counts: EventCounts,
+    /// Simulated time of the stage.
+    pub simulated_time: f64,
+    /// Wall-clock seconds.
+    pub wall_seconds: f64,
+    /// Packing fraction at the end.
+    pub packing_fraction: f64,
+    /// Reduced pressure `Z`: time average over the stage without growth, value over the last
+    /// barrier interval with growth.
+    pub reduced_pressure: f64,
+    /// Standard error of the time-averaged `Z` from block averages (stages without growth).
+    pub reduced_pressure_stderr: Option<f64>,
+}
+
+/// Per-interval pressure record: virial and `Σ m v² · Δt`.
+#[derive(Clone, Copy)]
+struct PressureBlock {
+    virial: f64,
+    kinetic_time: f64,
+}
+
+impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
+    /// Runs one stage from a synchronised state and leaves the kernel synchronised.
+    pub fn run_stage(&mut self, stage: &Stage) -> StageReport {
+        let started = std::time::Instant::now();
+        let counts_before = self.counters;
+        let n = self.particles.len().max(1) as f64;
+        for p in &mut self.particles {
+            p.shape.set_growth(0.0, stage.growth);
+        }
+        let growing = stage.growth != Growth::None;
+        if stage.thermostat && self.particles.len() > 1 {
+            self.rescale_temperature();
+        }
+        // Simulated time at which the goal is met exactly, if the goal is a time.
+        let mut end_time = stage.until.time;
+        let mut report_reason = None;
+        if let Some(target) = stage.until.packing_fraction {
+            match self.time_to_packing_fraction(target, growing) {
+                Some(t) => end_time = Some(end_time.map_or(t, |e: f64| e.min(t))),
+                None => report_reason = Some(StopReason::Unreachable),
+            }
+        }
+        let mut budget = EventBudget {
+            events_left: stage.limits.events,
+            deadline: stage
+                .limits
+                .wall_seconds
+                .map(|s| started + std::time::Duration::from_secs_f64(s)),
+            stall_epsilon: stage.limits.stall_epsilon,
+            since_check: 0,
+            time_at_check: self.elapsed,
+            stopped: None,
+        };
+        let collisions_goal = stage
+            .until
+            .collisions_per_particle
+            .map(|c| counts_before.collisions + (c * n).ceil() as u64);
+        let mut stage_time = 0.0;
+        let mut last_z = f64::NAN;
+        let mut blocks: Vec<PressureBlock> = Vec::new();
+        let target_events = self.config.events_per_particle_per_interval * n;
+        if self.interval <= 0.0 {
+            self.interval = self.initial_interval();
+        }
+        let mut interval = self.interval;
+        while report_reason.is_none() {
+            let mut this = interval;
+            if let Some(end) = end_time {
+                this = this.min((end - stage_time).max(0.0));
+            }
+            let events_before = self.counters.events;
+            self.begin_interval(this);
+            let completed = self.run_interval(&mut budget);
+            let t_end = if completed { self.barrier_time } else { self.time };
+            let events = self.counters.events - events_before;
+            // Pressure over the interval, from the virial and the mean of Σmv² at its ends.
+            let virial = self.virial;
+            let kinetic_end = self.kinetic_twice_at(t_end);
+            let kinetic_time = 0.5 * (self.kinetic_start + kinetic_end) * t_end;
+            if t_end > 0.0 && kinetic_time > 0.0 {
+                last_z = 1.0 + virial / kinetic_time;
+                blocks.push(PressureBlock {
+                    virial,
+                    kinetic_time,
+                });
+            }
+            self.synchronise_and_rebase(t_end);
+            self.counters.barriers += 1;
+            stage_time += t_end;
+            if stage.thermostat && growing && self.particles.len() > 1 {
+                self.rescale_temperature();
+            }
+            if !completed {
+                report_reason = budget.stopped;
+                break;
+            }
+            if let Some(end) = end_time {
+                if stage_time >= end {
+                    report_reason = Some(if stage.until.time == Some(end) {
+                        StopReason::TimeReached
+                    } else {
+                        StopReason::PackingFractionReached
+                    });
+                    break;
+                }
+            }
+            if let Some(z) = stage.until.reduced_pressure {
+                if last_z >= z {
+                    report_reason = Some(StopReason::Jammed);
+                    break;
+                }
+            }
+            if collisions_goal.is_some_and(|goal| self.counters.collisions >= goal) {
+                report_reason = Some(StopReason::CollisionsReached);
+                break;
+            }
+            // Adapt the interval to hold about `target_events` events.
+            let factor = if events == 0 {
+                4.0
+            } else {
+                (target_events / events as f64).clamp(0.25, 4.0)
+            };
+            if this >= interval * 0.999 {
+                interval *= factor;
+            }
+            self.interval = interval;
+        }
+        let (reduced_pressure, reduced_pressure_stderr) = if growing {
+            (last_z, None)
+        } else {
+            block_average(&blocks)
+        };
+        let mut counts = self.counters;
+        counts.events -= counts_before.events;
+        counts.collisions -= counts_before.collisions;
+        counts.wall_collisions -= counts_before.wall_collisions;
+        counts.cell_crossings -= counts_before.cell_crossings;
+        counts.stale -= counts_before.stale;
+        counts.barriers -= counts_before.barriers;
+        counts.grid_rebuilds -= counts_before.grid_rebuilds;
+        StageReport {
+            stop_reason: report_reason.expect("a stage ends with a reason"),
+            counts,
+            simulated_time: stage_time,
+            wall_seconds: started.elapsed().as_secs_f64(),
+            packing_fraction: self.packing_fraction_at(0.0),
+            reduced_pressure,
+            reduced_pressure_stderr,
+        }
+    }
+
+    /// `Σ m v²` with masses evaluated at kernel time `t`.
+    fn kinetic_twice_at(&self, t: f64) -> f64 {
+        self.particles
+            .iter()
+            .map(|p| self.mass(p, t) * p.vel.norm_squared())
+            .sum()
+    }
+
+    /// A first barrier interval: a fraction of the time a particle needs to cross the
+    /// smallest gap scale (the interval adapts from there).
+    fn initial_interval(&self) -> f64 {
+        let n = self.particles.len().max(1) as f64;
+        let v_rms = (self.kinetic_twice() / n).sqrt().max(1e-300);
+        let d = self.max_diameter(0.0).max(1e-300);
+        0.05 * d / v_rms
+    }
+
+    /// Kernel time at which the packing fraction reaches `target` under the current growth,
+    /// or `None` if it never does.
+    fn time_to_packing_fraction(&self, target: f64, growing: bool) -> Option<f64> {
+        let phi0 = self.packing_fraction_at(0.0);
+        if phi0 >= target {
+            return Some(0.0);
+        }
+        if !growing {
+            return None;
+        }
+        let mut hi = 1e-12_f64.max(self.initial_interval());
+        while self.packing_fraction_at(hi) < target {
+            hi *= 2.0;
+            if !hi.is_finite() {
+                return None;
+            }
+        }
+        let mut lo = 0.0;
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if mid <= lo || mid >= hi {
+                break;
+            }
+            if self.packing_fraction_at(mid) < target {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        Some(hi)
+    }
+}
+
+/// Time-averaged `Z` and its standard error from up to 20 consecutive blocks of intervals.
+fn block_average(blocks: &[PressureBlock]) -> (f64, Option<f64>) {
+    let virial: f64 = blocks.iter().map(|b| b.virial).sum();
+    let kt: f64 = blocks.iter().map(|b| b.kinetic_time).sum();
+    if kt <= 0.0 {
+        return (f64::NAN, None);
+    }
+    let mean = 1.0 + virial / kt;
+    let nb = blocks.len().min(20);
+    if nb < 4 {
+        return (mean, None);
+    }
+    let per = blocks.len() / nb;
+    let zs: Vec<f64> = blocks
+        .chunks(per)
+        .take(nb)
+        .map(|c| {
+            let v: f64 = c.iter().map(|b| b.virial).sum();
+            let k: f64 = c.iter().map(|b| b.kinetic_time).sum();
+            1.0 + v / k
+        })
+        .collect();
+    let m = zs.iter().sum::<f64>() / zs.len() as f64;
+    let var = zs.iter().map(|z| (z - m).powi(2)).sum::<f64>() / (zs.len() - 1) as f64;
+    (mean, Some((var / zs.len() as f64).sqrt()))
+}
