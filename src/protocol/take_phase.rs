@@ -83,7 +83,11 @@
 //! φ_eff = φ_M (1 − F(d_min))          (Eq. 16–17)
 //! ```
 //!
-//! and the aggregate volume actually generated is `φ_eff V`.
+//! and the aggregate volume actually generated is `φ_eff V`. The paper's examples
+//! (`φ_M` = 0.70, `d_min` = 2 mm, 150 mm cube): B16 passes 42 % at 2 mm, so
+//! `φ_eff` = 0.406 and `N` ≈ 40 049 from the sieve table; A16 passes 21 %, so
+//! `φ_eff` = 0.553 and `N` ≈ 44 202. The paper prints 53.3 % for A16, which no reading of
+//! the curve reproduces (its Fuller approximation q = 0.7 gives 0.537); 0.553 is used here.
 //!
 //! # Example
 //!
@@ -256,13 +260,13 @@ pub enum TakeError {
 /// | B16   | 8    | 20  | 32 | 42 | 56 | 76  | 100 |
 /// | C16   | 18   | 34  | 49 | 62 | 74 | 88  | 100 |
 ///
-/// Source: DIN 1045-2:2008-08, Anhang L, Bild L.1 (maximum size 8 mm) and Bild L.2
-/// (maximum size 16 mm), as commonly reproduced in German concrete handbooks; the standard
-/// itself was not available when this table was entered, so the 8 mm values are the
-/// commonly cited ones. Plausibility checks: every row is monotone, and the local Fuller
-/// exponents `ln P / ln(d/d_max)` lie in 0.71–0.86 (A8), 0.41–0.64 (B8) and 0.23–0.45 (C8),
-/// next to 0.59–0.74 (A16), 0.40–0.61 (B16) and 0.19–0.41 (C16); the paper quotes the
-/// Fuller approximations q = 0.7 (A16), 0.35 (B16), 0.22 (C16).
+/// Source: DIN 1045-2 (2008), Anhang L, grading-curve figures for maximum aggregate sizes
+/// 8 mm (Bild L.1) and 16 mm (Bild L.2), in the values commonly reproduced in German
+/// concrete handbooks. The standard itself was not available to check them against.
+/// Plausibility checks: every row is monotone, and the local Fuller exponents
+/// `ln P(d) / ln(d / d_max)` lie in 0.71–0.86 (A8), 0.41–0.64 (B8), 0.23–0.45 (C8), next
+/// to 0.73–0.84 (A16), 0.40–0.61 (B16), 0.18–0.41 (C16); the paper approximates A16, B16,
+/// C16 by Fuller curves with q = 0.7, 0.35, 0.22.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Deserialize)]
 pub enum DinCurve {
     /// Coarse curve, maximum size 8 mm.
