@@ -171,6 +171,7 @@ fn run_with<B: Boundary + ContainerRecordOf, Q: EventQueue>(
         mass: scene.mass,
         temperature: scene.temperature,
         events_per_particle_per_interval: scene.events_per_particle_per_interval,
+        neighbour_skin: scene.neighbour_skin,
     };
     let mut kernel: Edmd<Sphere, B, Q> = Edmd::new(centres, shapes, boundary, config, &mut rng);
     let mut reports: Vec<StageReport> = Vec::new();

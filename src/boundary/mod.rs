@@ -9,7 +9,7 @@
 //! Wall contacts treat the particle through its bounding sphere, which is exact for spheres.
 //! Distance functions follow paper 001, Eq. 23 (plane) and its cylinder analogue.
 
-use crate::shape::{first_falling_root, Vec3};
+use crate::shape::{exit_ball_time, Vec3};
 use rand::Rng;
 
 /// Index of a wall of a container (box faces `2·axis + side`, cylinder mantle and caps).
@@ -283,15 +283,12 @@ impl Boundary for CylinderContainer {
         if v.z + g > 0.0 {
             consider((self.height - z - r) / (v.z + g), TOP);
         }
-        // Mantle: the free radius s(τ) = R − r − gτ against the axial distance |q + uτ|.
-        // Gap-like f = s(τ)² − |q + uτ|² = (g² − u²)τ² + 2(−s g − q·u)τ + (s² − q²).
+        // Mantle: the axial offset q must stay within the free radius R − r(τ).
         let q = nalgebra::Vector2::new(p.x - self.base_center.x, p.y - self.base_center.y);
         let u = nalgebra::Vector2::new(v.x, v.y);
-        let s = self.radius - r;
-        let a = g * g - u.norm_squared();
-        let b = -(s * g + q.dot(&u));
-        let c = s * s - q.norm_squared();
-        if let Some(tau) = first_falling_root(a, b, c) {
+        if let Some(tau) =
+            exit_ball_time(q.norm_squared(), q.dot(&u), u.norm_squared(), self.radius - r, g)
+        {
             consider(tau, MANTLE);
         }
         best

@@ -51,6 +51,10 @@ pub struct Scene {
     /// Target events per particle between time barriers (default 4; see BENCHMARKS.md).
     #[serde(default = "default_events_per_interval")]
     pub events_per_particle_per_interval: f64,
+    /// Neighbour-list skin relative to each particle's radius (default 0.1; see
+    /// BENCHMARKS.md).
+    #[serde(default = "default_neighbour_skin")]
+    pub neighbour_skin: f64,
     /// The container.
     pub container: ContainerSpec,
     /// The particles.
@@ -66,6 +70,10 @@ fn default_temperature() -> f64 {
 
 fn default_events_per_interval() -> f64 {
     4.0
+}
+
+fn default_neighbour_skin() -> f64 {
+    0.1
 }
 
 /// The container of a scene.
@@ -252,6 +260,7 @@ impl Scene {
             "events_per_particle_per_interval",
             self.events_per_particle_per_interval,
         )?;
+        positive("neighbour_skin", self.neighbour_skin)?;
         // Container.
         let (smallest_extent, periodic_extent) = match &self.container {
             ContainerSpec::Box {

@@ -249,7 +249,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         counts.events -= counts_before.events;
         counts.collisions -= counts_before.collisions;
         counts.wall_collisions -= counts_before.wall_collisions;
-        counts.cell_crossings -= counts_before.cell_crossings;
+        counts.neighbour_list_updates -= counts_before.neighbour_list_updates;
         counts.stale -= counts_before.stale;
         counts.barriers -= counts_before.barriers;
         counts.grid_rebuilds -= counts_before.grid_rebuilds;

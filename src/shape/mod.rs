@@ -117,9 +117,30 @@ pub fn first_falling_root(a: f64, b: f64, c: f64) -> Option<f64> {
     Some((b + disc.sqrt()) / -a)
 }
 
+/// First time `τ ≥ 0` at which a point at offset `q` from the centre of a ball of radius
+/// `s` shrinking at rate `g`, and moving at velocity `v`, reaches the ball's surface:
+/// `|q + v τ| = s − g τ`. Arguments are `q·q`, `q·v`, `v·v`. Used for a sphere leaving its
+/// neighbour-list sphere (the particle's radius grows, so the free radius shrinks) and, in
+/// two dimensions, for a sphere meeting the mantle of a cylindrical container.
+///
+/// Gap-like form `f = (s − gτ)² − |q + vτ|²`: `a = g² − v²`, `b = −(s g + q·v)`,
+/// `c = s² − q²`; `f` is zero at `τ = s/g` at the latest, so a root always exists when `g > 0`.
+#[inline]
+pub fn exit_ball_time(q2: f64, qv: f64, v2: f64, s: f64, g: f64) -> Option<f64> {
+    first_falling_root(g * g - v2, -(s * g + qv), s * s - q2)
+}
+
 #[cfg(test)]
 mod tests {
-    use super::first_falling_root;
+    use super::{exit_ball_time, first_falling_root};
+
+    #[test]
+    fn exit_time_of_a_point_leaving_a_shrinking_ball() {
+        // From the centre at speed 1 through a ball of radius 2 shrinking at 1: |τ| = 2 − τ.
+        assert_eq!(exit_ball_time(0.0, 0.0, 1.0, 2.0, 1.0), Some(1.0));
+        // At rest in a ball that does not shrink: never.
+        assert_eq!(exit_ball_time(0.25, 0.0, 0.0, 1.0, 0.0), None);
+    }
 
     #[test]
     fn falling_root_matches_closed_form() {

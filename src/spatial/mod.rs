@@ -1,11 +1,11 @@
-//! The cell grid (DynamO's *globals*): which particles can meet soon.
+//! The cell grid (DynamO's *globals*): which bodies are near each other.
 //!
 //! The container's bounding box is divided into `nx × ny × nz` cells whose width is at least
-//! the largest particle diameter the kernel expects before the next time barrier. Two
-//! particles can then only touch while their centres sit in neighbouring cells (Alder and
-//! Wainwright's cell method, paper 001 §5.4 step 5), so a particle is checked against the
-//! members of the 27 cells around its own. Crossing a cell face is an event of its own; after
-//! a crossing only the newly adjacent layer of 9 cells needs checking.
+//! the largest interaction diameter `w` of the registered bodies. Two bodies closer than `w`
+//! then sit in neighbouring cells (Alder and Wainwright's cell method, paper 001 §5.4 step 5),
+//! so a query looks at the members of the 27 cells around a point. The kernel registers the
+//! centres of the particles' neighbour-list spheres here and queries the grid only when a
+//! particle's neighbour list is rebuilt (see [`crate::kernel`]).
 //!
 //! Members are kept in intrusive doubly linked lists (`head` per cell, `next`/`prev` per
 //! particle): insert, remove and move are `O(1)` and need no allocation.
@@ -50,16 +50,6 @@ impl CellSet {
         self.cells[self.len] = c;
         self.len += 1;
     }
-}
-
-/// A face crossing: the particle leaves its cell through the face normal to `axis`, moving
-/// in direction `dir` (±1).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Crossing {
-    /// Axis 0, 1 or 2.
-    pub axis: u8,
-    /// +1 or −1.
-    pub dir: i8,
 }
 
 impl CellGrid {
@@ -197,25 +187,12 @@ impl CellGrid {
 
     /// The cell itself and its up to 26 neighbours, each once.
     pub fn neighbourhood(&self, cell: u32) -> CellSet {
-        self.block(cell, [-1..=1, -1..=1, -1..=1])
-    }
-
-    /// The layer of up to 9 cells that becomes adjacent when a particle has moved into
-    /// `cell` through `crossing`.
-    pub fn new_layer(&self, cell: u32, crossing: Crossing) -> CellSet {
-        let d = crossing.dir as i32;
-        let mut ranges = [-1..=1, -1..=1, -1..=1];
-        ranges[crossing.axis as usize] = d..=d;
-        self.block(cell, ranges)
-    }
-
-    fn block(&self, cell: u32, ranges: [std::ops::RangeInclusive<i32>; 3]) -> CellSet {
         let c = self.coords(cell);
         // Neighbour coordinates per axis first (at most 3 each), then their products.
         let mut axes = [[0u32; 3]; 3];
         let mut counts = [0usize; 3];
         for k in 0..3 {
-            for d in ranges[k].clone() {
+            for d in -1..=1 {
                 if let Some(x) = self.step(c[k], k, d) {
                     axes[k][counts[k]] = x;
                     counts[k] += 1;
@@ -238,56 +215,6 @@ impl CellGrid {
         set
     }
 
-    /// Time until a point at `p` moving at `v` leaves `cell` through a face that has a cell
-    /// behind it (bounded edges are walls, not crossings).
-    #[inline]
-    pub fn predict_crossing(&self, cell: u32, p: &Vec3, v: &Vec3) -> Option<(f64, Crossing)> {
-        let c = self.coords(cell);
-        let mut best: Option<(f64, Crossing)> = None;
-        for k in 0..3 {
-            if self.dims[k] == 1 && !self.periodic[k] {
-                continue;
-            }
-            let lo = self.origin[k] + c[k] as f64 * self.width[k];
-            let (tau, dir) = if v[k] > 0.0 {
-                if !self.periodic[k] && c[k] + 1 == self.dims[k] {
-                    continue;
-                }
-                ((lo + self.width[k] - p[k]) / v[k], 1)
-            } else if v[k] < 0.0 {
-                if !self.periodic[k] && c[k] == 0 {
-                    continue;
-                }
-                ((lo - p[k]) / v[k], -1)
-            } else {
-                continue;
-            };
-            let tau = tau.max(0.0);
-            if best.is_none_or(|(t, _)| tau < t) {
-                best = Some((tau, Crossing { axis: k as u8, dir }));
-            }
-        }
-        best
-    }
-
-    /// The cell entered through `crossing`, and the periodic shift (−1, 0 or +1 box lengths
-    /// along the crossing axis) to apply to the position to keep it in the box.
-    #[inline]
-    pub fn neighbour_across(&self, cell: u32, crossing: Crossing) -> (u32, i8) {
-        let k = crossing.axis as usize;
-        let mut c = self.coords(cell);
-        let n = self.dims[k] as i32;
-        let x = c[k] as i32 + crossing.dir as i32;
-        let shift = if x < 0 {
-            1
-        } else if x >= n {
-            -1
-        } else {
-            0
-        };
-        c[k] = x.rem_euclid(n) as u32;
-        (self.index(c), shift)
-    }
 }
 
 /// Iterator over the members of a cell.
