@@ -209,14 +209,21 @@ fn packing_of<B: Boundary + ContainerRecordOf, Q: EventQueue>(
     kernel: &Edmd<Sphere, B, Q>,
     reports: &[StageReport],
 ) -> Packing {
-    let particles = kernel
+    // Back to the order of the seeding, which the kernel permutes for cache locality.
+    let mut particles: Vec<(u32, ParticleRecord)> = kernel
         .particles()
         .iter()
-        .map(|p| ParticleRecord::Sphere {
-            center: p.pos.into(),
-            radius: p.shape.radius(0.0),
+        .zip(kernel.original_indices())
+        .map(|(p, &id)| {
+            let record = ParticleRecord::Sphere {
+                center: p.pos.into(),
+                radius: p.shape.radius(0.0),
+            };
+            (id, record)
         })
         .collect();
+    particles.sort_by_key(|(id, _)| *id);
+    let particles = particles.into_iter().map(|(_, r)| r).collect();
     let last = reports.last().expect("a scene has at least one stage");
     let events: u64 = reports.iter().map(|r| r.counts.events).sum();
     let collisions: u64 = reports.iter().map(|r| r.counts.collisions).sum();

@@ -166,6 +166,9 @@ pub struct Edmd<S: Collidable, B: Boundary, Q: EventQueue> {
     boundary: B,
     /// Cell grid over the neighour-list sphere centres.
     grid: CellGrid,
+    /// Index each particle had when the kernel was built (the kernel keeps particles sorted
+    /// by cell so that neighbours are close in memory).
+    ids: Vec<u32>,
     queue: Q,
     config: KernelConfig,
     /// Volume of a particle of mass 1 under [`MassRule::Volume`].
@@ -251,6 +254,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 .map(|p| (1.0 + config.neighbour_skin) * p.shape.bounding_radius(0.0))
                 .collect(),
             neighbours: vec![Vec::new(); n],
+            ids: (0..n as u32).collect(),
             queue: Q::with_capacity(n),
             particles,
             boundary,
@@ -273,9 +277,15 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         kernel
     }
 
-    /// The particles; their states are synchronised (all at `time() == 0`) between stages.
+    /// The particles in the kernel's memory order; their states are synchronised (all at
+    /// kernel time 0) between stages. [`Edmd::original_indices`] maps them back.
     pub fn particles(&self) -> &[Particle<S>] {
         &self.particles
+    }
+
+    /// For each particle of [`Edmd::particles`], its index in the input of [`Edmd::new`].
+    pub fn original_indices(&self) -> &[u32] {
+        &self.ids
     }
 
     /// The container.
@@ -343,13 +353,43 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         }
     }
 
-    /// Rebuilds the cell grid of neighbour-list centres for cells at least `width` wide.
+    /// Rebuilds the cell grid of neighbour-list centres for cells at least `width` wide, and
+    /// renumbers the particles in cell order so that neighbours sit close in memory (the
+    /// event loop's data then stays in cache for large systems). Only at a barrier: local
+    /// event lists must be empty.
     fn rebuild_grid(&mut self, width: f64) {
         let b = &self.boundary;
-        self.grid = CellGrid::new(b.min(), b.max(), b.periodic(), width, self.particles.len());
-        for (i, c) in self.list_centre.iter().enumerate() {
-            let cell = self.grid.cell_at(c);
-            self.grid.insert(i, cell);
+        let n = self.particles.len();
+        self.grid = CellGrid::new(b.min(), b.max(), b.periodic(), width, n);
+        let cells: Vec<u32> = self.list_centre.iter().map(|c| self.grid.cell_at(c)).collect();
+        let mut order: Vec<u32> = (0..n as u32).collect();
+        order.sort_by_key(|&i| (cells[i as usize], i));
+        let mut new_index = vec![0u32; n];
+        for (new, &old) in order.iter().enumerate() {
+            new_index[old as usize] = new as u32;
+        }
+        let permute = |v: &mut Vec<_>| {
+            let moved: Vec<_> = order.iter().map(|&o| std::mem::take(&mut v[o as usize])).collect();
+            *v = moved;
+        };
+        fn permute_copy<T: Copy>(v: &mut Vec<T>, order: &[u32]) {
+            *v = order.iter().map(|&o| v[o as usize]).collect();
+        }
+        permute_copy(&mut self.counts, &order);
+        permute_copy(&mut self.list_centre, &order);
+        permute_copy(&mut self.list_radius, &order);
+        permute_copy(&mut self.ids, &order);
+        self.particles = order.iter().map(|&o| self.particles[o as usize].clone()).collect();
+        let mut neighbours = std::mem::take(&mut self.neighbours);
+        permute(&mut neighbours);
+        for list in &mut neighbours {
+            for j in list.iter_mut() {
+                *j = new_index[*j as usize];
+            }
+        }
+        self.neighbours = neighbours;
+        for (i, &o) in order.iter().enumerate() {
+            self.grid.insert(i, cells[o as usize]);
         }
         self.counters.grid_rebuilds += 1;
     }
