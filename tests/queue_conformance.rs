@@ -113,7 +113,13 @@ impl Lockstep {
         assert_eq!(self.calendar.is_empty(), n == 0);
     }
 
-    fn compare(&self, what: &str, want: Option<(usize, f64)>, heap: Option<(usize, f64)>, cal: Option<(usize, f64)>) {
+    fn compare(
+        &self,
+        what: &str,
+        want: Option<(usize, f64)>,
+        heap: Option<(usize, f64)>,
+        cal: Option<(usize, f64)>,
+    ) {
         assert_eq!(bits(heap), bits(want), "heap {what}, step {}", self.step);
         assert_eq!(bits(cal), bits(want), "calendar {what}, step {}", self.step);
     }
@@ -199,7 +205,10 @@ fn random_run(seed: u64, capacity: usize, steps: usize, resets: bool, hostile: b
     let mut now = 0.0;
     for _ in 0..steps {
         let op = match rng.gen_range(0..1000) {
-            0..=349 => Op::Schedule(rng.gen_range(0..capacity), window_time(&mut rng, a, b, hostile)),
+            0..=349 => Op::Schedule(
+                rng.gen_range(0..capacity),
+                window_time(&mut rng, a, b, hostile),
+            ),
             350..=499 => {
                 // Reschedule a present key, typically into the near future of `now`.
                 let k = rng.gen_range(0..capacity);
@@ -276,7 +285,10 @@ fn all_ties_are_broken_by_key() {
     // And without a reset, with two tie levels.
     let mut q = Lockstep::new(n);
     for k in 0..n {
-        q.apply(Op::Schedule((k * 7919) % n, if k % 3 == 0 { 2.0 } else { 1.0 }));
+        q.apply(Op::Schedule(
+            (k * 7919) % n,
+            if k % 3 == 0 { 2.0 } else { 1.0 },
+        ));
     }
     q.drain();
 }

@@ -472,3 +472,95 @@ impl EventQueue for CalendarQueue {
         self.len
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_xoshiro::Xoshiro256PlusPlus;
+
+    impl CalendarQueue {
+        /// Asserts the invariants stated on the fields.
+        fn check_invariants(&self) {
+            let nb = self.buckets.len();
+            assert!(self.cur < nb || (nb == 0 && self.cur == 0));
+            assert!(nb > 0 || self.overflow.is_empty());
+            for (i, &k) in self.front.iter().enumerate() {
+                assert_eq!(self.place[k as usize], Place::Front(i as u32));
+                assert!(self.slot(self.time[k as usize]) <= self.cur);
+                if i > 0 {
+                    assert!(self.before(self.front[(i - 1) / 2], k));
+                }
+            }
+            let mut in_buckets = 0;
+            for (b, bucket) in self.buckets.iter().enumerate() {
+                assert!(b > self.cur || bucket.is_empty());
+                for (pos, &k) in bucket.iter().enumerate() {
+                    let (index, pos) = (b as u32, pos as u32);
+                    assert_eq!(self.place[k as usize], Place::Bucket { index, pos });
+                    assert_eq!(self.slot(self.time[k as usize]), b);
+                }
+                in_buckets += bucket.len();
+            }
+            for (pos, &k) in self.overflow.iter().enumerate() {
+                assert_eq!(self.place[k as usize], Place::Overflow(pos as u32));
+                assert_eq!(self.slot(self.time[k as usize]), nb);
+            }
+            let total = self.front.len() + in_buckets + self.overflow.len();
+            assert_eq!(total, self.len);
+            let present = self.place.iter().filter(|&&p| p != Place::Absent).count();
+            assert_eq!(present, self.len);
+        }
+    }
+
+    /// The hold pattern keeps the calendar in calendar mode with a small front, with or
+    /// without a reset, and the invariants hold throughout.
+    #[test]
+    fn hold_pattern_stays_a_calendar() {
+        for use_reset in [true, false] {
+            let n = 4096;
+            let mut rng = Xoshiro256PlusPlus::seed_from_u64(7);
+            let mut q = CalendarQueue::with_capacity(n);
+            if use_reset {
+                q.reset(0.0, 8.0, n);
+            }
+            for k in 0..n {
+                q.schedule(k, -rng.gen::<f64>().ln());
+            }
+            let mut max_front = 0;
+            for i in 0..200_000 {
+                let (k, t) = q.pop().unwrap();
+                q.schedule(k, t - rng.gen::<f64>().ln());
+                q.schedule(rng.gen_range(0..n), t - rng.gen::<f64>().ln());
+                if i > 1000 {
+                    assert!(!q.buckets.is_empty(), "heap mode at pop {i}");
+                    max_front = max_front.max(q.front.len());
+                }
+                if i % 10_000 == 0 {
+                    q.check_invariants();
+                }
+            }
+            q.check_invariants();
+            assert!(max_front <= FRONT_LIMIT, "front grew to {max_front}");
+        }
+    }
+
+    /// A window far too wide crowds the front; the queue rebuilds itself a fitting calendar.
+    #[test]
+    fn bad_window_is_repaired() {
+        let n = 10_000;
+        let mut q = CalendarQueue::with_capacity(n);
+        q.reset(0.0, 1e9, 16);
+        for k in 0..n {
+            q.schedule(k, k as f64 * 1e-3);
+        }
+        for k in 0..n {
+            assert_eq!(q.pop(), Some((k, k as f64 * 1e-3)));
+            assert!(q.front.len() <= FRONT_LIMIT + 1);
+            if k % 1000 == 0 {
+                q.check_invariants();
+            }
+        }
+        assert_eq!(q.pop(), None);
+    }
+}
