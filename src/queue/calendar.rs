@@ -1,27 +1,566 @@
-//! Calendar queue (Paul 2007). Placeholder delegating to the heap until the real one lands.
-use super::{EventQueue, HeapQueue};
-/// Calendar queue.
-pub struct CalendarQueue(HeapQueue);
+//! Calendar queue after Paul (2007), *J. Comput. Phys.* 221:615, "A complexity O(1) priority
+//! queue for event driven molecular dynamics simulations".
+//!
+//! # Structure
+//!
+//! The time axis from `origin` on is cut into `nb` buckets of equal width `w`; an entry of
+//! time `t` belongs to bucket `s(t) = floor((t - origin) / w)`, clamped to `0..=nb`, where
+//! `nb` stands for "beyond the calendar". `s` is non-decreasing in `t` (floating-point
+//! subtraction and multiplication by a positive constant are monotone), so an entry in a
+//! lower bucket is never later than one in a higher bucket. One bucket, `cur`, is *current*:
+//!
+//! - the **front**, a small indexed binary heap ordered by `(time, key)`, holds every entry
+//!   with `s(t) <= cur`: the current bucket's entries and any entry scheduled before it
+//!   (which the kernel only does by rounding; it stays correct for any time);
+//! - each later bucket `cur < b < nb` is an **unsorted `Vec`** of keys;
+//! - entries with `s(t) = nb` go to the unsorted **overflow** list.
+//!
+//! Every key knows where it is (front position, or bucket and position in that bucket's
+//! `Vec`, or position in the overflow), so `cancel` and re-`schedule` are `O(1)` outside the
+//! front (`swap_remove`, then the moved key's position is fixed) and `O(log m)` in a front of
+//! `m` entries. `peek`/`pop` serve the front's minimum, which is the global minimum by the
+//! invariants above. When the front runs empty, `cur` advances to the next non-empty bucket,
+//! whose entries are heapified into the front. When `cur` runs past the last bucket, only
+//! the overflow is left and the calendar is rebuilt around it.
+//!
+//! # Bucket width
+//!
+//! [`EventQueue::reset`] lays the calendar over the kernel's window `[start, end]` with
+//! `nb = expected_len` rounded up to a power of two and `w = (end - start) / nb`: with the
+//! entries spread over the window a bucket holds `O(1)` of them. A **rebuild** derives the
+//! calendar from the entries themselves: `origin` is the earliest finite time, `nb` the
+//! entry count rounded up to a power of two, and `w` such that the 7/8-quantile of the
+//! times falls at the middle of the calendar, which leaves the second half for events
+//! scheduled later and keeps far outliers from inflating the width. The queue rebuilds when
+//!
+//! - the calendar is exhausted and entries remain in the overflow (this is also how a queue
+//!   that is never `reset` finds its window, and how it follows a simulation that runs past
+//!   the `end` of its window), or
+//! - the front holds more than `FRONT_LIMIT` (64) entries (the width does not fit the times,
+//!   e.g. a window that was far too wide) and at least `len` operations have happened since
+//!   the last rebuild, so that the `O(len + nb)` rebuild costs `O(1)` per operation.
+//!
+//! Without a usable window (an empty or non-finite `reset` window, before the first rebuild
+//! of a queue that was never `reset`, or entries with no spread in time) the calendar has no
+//! bucket and the queue is a plain indexed heap (`nb = 0`, everything in the front).
+//!
+//! # Complexity
+//!
+//! With the times spread over the calendar so that a bucket holds `O(1)` entries, `schedule`,
+//! `cancel`, `peek` and `pop` take amortized `O(1)` time: a pop scans on average `O(1)` empty
+//! buckets, and a rebuild is paid for by the operations since the last one. In the worst
+//! case (all times clustered in one bucket) the queue degrades to the `O(log n)` of the
+//! binary heap. Memory is `O(capacity + nb)`.
+
+use super::EventQueue;
+use std::cmp::Ordering;
+
+/// A front larger than this triggers a rebuild (see the module documentation).
+const FRONT_LIMIT: usize = 64;
+
+/// Upper bound on the number of buckets (and with it on the memory a `reset` can allocate).
+const MAX_BUCKETS: usize = 1 << 24;
+
+/// Where a key's entry is stored. Positions index the named `Vec`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Place {
+    /// The key has no entry.
+    Absent,
+    /// In the front heap, at this position of `front`.
+    Front(u32),
+    /// In bucket `index`, at position `pos` of `buckets[index]`.
+    Bucket {
+        /// Bucket index, `cur < index < nb`.
+        index: u32,
+        /// Position in the bucket's `Vec`.
+        pos: u32,
+    },
+    /// In the overflow list, at this position.
+    Overflow(u32),
+}
+
+/// Calendar queue (Paul 2007): amortized `O(1)` schedule, cancel and pop when the times are
+/// spread over the window given to [`EventQueue::reset`].
+///
+/// The window is cut into about `expected_len` buckets (a power of two). Entries of the
+/// current bucket (and any earlier ones) sit in a small indexed binary heap, later buckets
+/// are unsorted, and entries beyond the last bucket wait in an overflow list until the
+/// calendar, once exhausted, is rebuilt around them. The calendar also rebuilds itself when
+/// the current bucket gets crowded, so a queue that is never `reset`, or whose window does not
+/// fit the times, finds a fitting bucket width; with no usable width it is a plain binary heap.
+/// Results are identical to [`HeapQueue`](super::HeapQueue)'s in every case.
+///
+/// Keys are stored as `u32`: keys must be below `u32::MAX`.
+pub struct CalendarQueue {
+    /// `time[k]` is the time of key `k`'s entry; meaningless when `place[k]` is `Absent`.
+    time: Vec<f64>,
+    /// `place[k]` is where key `k`'s entry is stored; `time.len() == place.len()`.
+    place: Vec<Place>,
+    /// Indexed binary min-heap by `(time, key)` of every entry with bucket `<= cur`;
+    /// `place[front[i]] == Front(i)`. In heap mode (`buckets` empty) it holds every entry.
+    front: Vec<u32>,
+    /// `buckets.len() == nb`, the number of buckets of the calendar (0 in heap mode).
+    /// `buckets[b]` for `cur < b < nb` holds, unsorted, exactly the keys whose time falls in
+    /// bucket `b`, with `place[buckets[b][i]] == Bucket { index: b, pos: i }`; buckets
+    /// `b <= cur` are empty.
+    buckets: Vec<Vec<u32>>,
+    /// Unsorted keys whose time falls beyond the last bucket;
+    /// `place[overflow[i]] == Overflow(i)`. Empty in heap mode.
+    overflow: Vec<u32>,
+    /// The current bucket: `cur < nb`, or `cur == 0` in heap mode.
+    cur: usize,
+    /// Start time of bucket 0 (finite).
+    origin: f64,
+    /// `1 / w`, the inverse bucket width (finite, positive).
+    inv_width: f64,
+    /// Number of entries (front + buckets + overflow).
+    len: usize,
+    /// Schedules, cancels and pops since the last rebuild or reset; a rebuild forced by an
+    /// oversized front waits until `ops >= len`.
+    ops: usize,
+    /// Scratch buffer for the keys moved by a rebuild (kept to reuse its allocation).
+    scratch_keys: Vec<u32>,
+    /// Scratch buffer for the times examined by a rebuild (kept to reuse its allocation).
+    scratch_times: Vec<f64>,
+}
+
+impl CalendarQueue {
+    /// Bucket of time `t`: `0..nb` inside the calendar, `nb` beyond it. Earlier than bucket 0
+    /// maps to 0. Non-decreasing in `t` under `f64::total_cmp` (NaNs, which the kernel never
+    /// schedules, go to the end of the order their sign gives them).
+    #[inline]
+    fn slot(&self, t: f64) -> usize {
+        let nb = self.buckets.len();
+        let x = (t - self.origin) * self.inv_width;
+        if x >= 0.0 {
+            if x < nb as f64 {
+                x as usize
+            } else {
+                nb
+            }
+        } else if x < 0.0 || t.is_sign_negative() {
+            0
+        } else {
+            nb
+        }
+    }
+
+    /// Whether entry `a` comes before entry `b` in `(time, key)` order.
+    #[inline]
+    fn before(&self, a: u32, b: u32) -> bool {
+        match self.time[a as usize].total_cmp(&self.time[b as usize]) {
+            Ordering::Less => true,
+            Ordering::Greater => false,
+            Ordering::Equal => a < b,
+        }
+    }
+
+    /// Writes key `k` at position `i` of the front and records it.
+    #[inline]
+    fn front_set(&mut self, i: usize, k: u32) {
+        self.front[i] = k;
+        self.place[k as usize] = Place::Front(i as u32);
+    }
+
+    /// Moves the front entry at `i` towards the root until the heap order holds.
+    /// Returns its final position.
+    fn sift_up(&mut self, mut i: usize) -> usize {
+        let k = self.front[i];
+        while i > 0 {
+            let parent = (i - 1) / 2;
+            let p = self.front[parent];
+            if !self.before(k, p) {
+                break;
+            }
+            self.front_set(i, p);
+            i = parent;
+        }
+        self.front_set(i, k);
+        i
+    }
+
+    /// Moves the front entry at `i` towards the leaves until the heap order holds.
+    fn sift_down(&mut self, mut i: usize) {
+        let k = self.front[i];
+        let n = self.front.len();
+        loop {
+            let left = 2 * i + 1;
+            if left >= n {
+                break;
+            }
+            let right = left + 1;
+            let mut child = left;
+            if right < n && self.before(self.front[right], self.front[left]) {
+                child = right;
+            }
+            let c = self.front[child];
+            if !self.before(c, k) {
+                break;
+            }
+            self.front_set(i, c);
+            i = child;
+        }
+        self.front_set(i, k);
+    }
+
+    /// Restores the heap order around position `i` after its entry's time changed.
+    fn front_fix(&mut self, i: usize) {
+        if self.sift_up(i) == i {
+            self.sift_down(i);
+        }
+    }
+
+    /// Removes the front entry at position `i` (its key's place is left to the caller).
+    fn front_remove(&mut self, i: usize) {
+        let last = self.front.pop().expect("front_remove on an empty front");
+        if i < self.front.len() {
+            self.front_set(i, last);
+            self.front_fix(i);
+        }
+    }
+
+    /// Stores key `k` (absent, with `time[k]` set) where its time belongs.
+    fn insert(&mut self, k: u32) {
+        let s = self.slot(self.time[k as usize]);
+        if s <= self.cur {
+            self.front.push(k);
+            let i = self.front.len() - 1;
+            self.sift_up(i);
+        } else if s < self.buckets.len() {
+            let bucket = &mut self.buckets[s];
+            self.place[k as usize] = Place::Bucket {
+                index: s as u32,
+                pos: bucket.len() as u32,
+            };
+            bucket.push(k);
+        } else {
+            self.place[k as usize] = Place::Overflow(self.overflow.len() as u32);
+            self.overflow.push(k);
+        }
+    }
+
+    /// Takes key `k` out of whichever structure holds it and marks it absent. Does not
+    /// change `len`.
+    fn unlink(&mut self, k: u32) {
+        match self.place[k as usize] {
+            Place::Absent => return,
+            Place::Front(i) => self.front_remove(i as usize),
+            Place::Bucket { index, pos } => {
+                let bucket = &mut self.buckets[index as usize];
+                bucket.swap_remove(pos as usize);
+                if let Some(&moved) = bucket.get(pos as usize) {
+                    self.place[moved as usize] = Place::Bucket { index, pos };
+                }
+            }
+            Place::Overflow(pos) => {
+                self.overflow.swap_remove(pos as usize);
+                if let Some(&moved) = self.overflow.get(pos as usize) {
+                    self.place[moved as usize] = Place::Overflow(pos);
+                }
+            }
+        }
+        self.place[k as usize] = Place::Absent;
+    }
+
+    /// Drops every bucket: the queue becomes a plain heap (everything goes to the front).
+    fn heap_mode(&mut self) {
+        self.buckets.clear();
+        self.cur = 0;
+        self.origin = 0.0;
+        self.inv_width = 1.0;
+    }
+
+    /// Lays out `nb` empty buckets of width `width` from `origin`; falls back to heap mode if
+    /// the width is not a positive number with a finite inverse.
+    fn lay_out(&mut self, origin: f64, width: f64, nb: usize) {
+        let inv_width = width.recip();
+        if !(origin.is_finite() && width > 0.0 && width.is_finite() && inv_width.is_finite()) {
+            self.heap_mode();
+            return;
+        }
+        let nb = nb.clamp(1, MAX_BUCKETS);
+        self.buckets.truncate(nb);
+        self.buckets.resize_with(nb, Vec::new);
+        self.cur = 0;
+        self.origin = origin;
+        self.inv_width = inv_width;
+    }
+
+    /// Rebuilds the calendar from the entries it holds (see the module documentation).
+    fn rebuild(&mut self) {
+        let mut keys = std::mem::take(&mut self.scratch_keys);
+        keys.clear();
+        keys.append(&mut self.front);
+        for bucket in &mut self.buckets {
+            keys.append(bucket);
+        }
+        keys.append(&mut self.overflow);
+
+        let mut times = std::mem::take(&mut self.scratch_times);
+        times.clear();
+        times.extend(
+            keys.iter()
+                .map(|&k| self.time[k as usize])
+                .filter(|t| t.is_finite()),
+        );
+        let nb = keys.len().next_power_of_two();
+        if times.len() < 2 {
+            self.heap_mode();
+        } else {
+            let lowest = times.iter().copied().fold(f64::INFINITY, f64::min);
+            let rank = (times.len() - 1) * 7 / 8;
+            let (_, &mut quantile, _) = times.select_nth_unstable_by(rank, f64::total_cmp);
+            let highest = times.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            // Ties up to the quantile: spread the calendar over all the times instead.
+            let reach = if quantile > lowest { quantile } else { highest };
+            let half = (nb / 2).max(1) as f64;
+            self.lay_out(lowest, (reach - lowest) / half, nb);
+        }
+
+        for &k in &keys {
+            self.place[k as usize] = Place::Absent;
+        }
+        for &k in &keys {
+            self.insert(k);
+        }
+        self.ops = 0;
+        self.scratch_keys = keys;
+        self.scratch_times = times;
+    }
+
+    /// Makes the front hold the minimum entry whenever the queue is not empty: advances the
+    /// current bucket over empty ones and rebuilds when needed.
+    fn settle(&mut self) {
+        loop {
+            if !self.front.is_empty() {
+                if self.front.len() > FRONT_LIMIT && self.ops >= self.len {
+                    // Resets `ops`, so this branch is not taken twice in a row.
+                    self.rebuild();
+                    continue;
+                }
+                return;
+            }
+            if self.len == 0 {
+                return;
+            }
+            // Entries outside the front exist only with buckets, so `cur < nb` here.
+            let nb = self.buckets.len();
+            let mut b = self.cur + 1;
+            while b < nb && self.buckets[b].is_empty() {
+                b += 1;
+            }
+            if b == nb {
+                // Calendar exhausted: everything left is in the overflow. The rebuild puts
+                // the earliest entry into the front.
+                self.rebuild();
+                continue;
+            }
+            self.cur = b;
+            let bucket = std::mem::take(&mut self.buckets[b]);
+            self.front.extend_from_slice(&bucket);
+            for (i, &k) in bucket.iter().enumerate() {
+                self.place[k as usize] = Place::Front(i as u32);
+            }
+            for i in (0..self.front.len() / 2).rev() {
+                self.sift_down(i);
+            }
+            self.buckets[b] = bucket;
+            self.buckets[b].clear();
+        }
+    }
+
+    /// Converts a key to its stored form, growing the per-key arrays when needed.
+    ///
+    /// # Panics
+    /// If `key >= u32::MAX`.
+    fn key(&mut self, key: usize) -> u32 {
+        let k = u32::try_from(key)
+            .ok()
+            .filter(|&k| k < u32::MAX)
+            .expect("CalendarQueue keys must be below u32::MAX");
+        if key >= self.place.len() {
+            self.place.resize(key + 1, Place::Absent);
+            self.time.resize(key + 1, 0.0);
+        }
+        k
+    }
+}
+
 impl EventQueue for CalendarQueue {
     fn with_capacity(capacity: usize) -> Self {
-        Self(HeapQueue::with_capacity(capacity))
+        Self {
+            time: vec![0.0; capacity],
+            place: vec![Place::Absent; capacity],
+            front: Vec::new(),
+            buckets: Vec::new(),
+            overflow: Vec::new(),
+            cur: 0,
+            origin: 0.0,
+            inv_width: 1.0,
+            len: 0,
+            ops: 0,
+            scratch_keys: Vec::new(),
+            scratch_times: Vec::new(),
+        }
     }
-    fn reset(&mut self, s: f64, e: f64, n: usize) {
-        self.0.reset(s, e, n)
+
+    fn reset(&mut self, start: f64, end: f64, expected_len: usize) {
+        for k in self.front.drain(..) {
+            self.place[k as usize] = Place::Absent;
+        }
+        for bucket in &mut self.buckets {
+            for k in bucket.drain(..) {
+                self.place[k as usize] = Place::Absent;
+            }
+        }
+        for k in self.overflow.drain(..) {
+            self.place[k as usize] = Place::Absent;
+        }
+        self.len = 0;
+        self.ops = 0;
+        let nb = expected_len.max(1).next_power_of_two().min(MAX_BUCKETS);
+        self.lay_out(start, (end - start) / nb as f64, nb);
     }
+
     fn schedule(&mut self, key: usize, time: f64) {
-        self.0.schedule(key, time)
+        let k = self.key(key);
+        self.ops += 1;
+        match self.place[key] {
+            Place::Absent => self.len += 1,
+            // Staying in the front or in the same bucket: update in place.
+            Place::Front(i) if self.slot(time) <= self.cur => {
+                self.time[key] = time;
+                self.front_fix(i as usize);
+                return;
+            }
+            Place::Bucket { index, .. } if self.slot(time) == index as usize => {
+                self.time[key] = time;
+                return;
+            }
+            _ => self.unlink(k),
+        }
+        self.time[key] = time;
+        self.insert(k);
     }
+
     fn cancel(&mut self, key: usize) {
-        self.0.cancel(key)
+        if self.place.get(key).is_some_and(|&p| p != Place::Absent) {
+            self.unlink(key as u32);
+            self.len -= 1;
+            self.ops += 1;
+        }
     }
+
     fn peek(&mut self) -> Option<(usize, f64)> {
-        self.0.peek()
+        self.settle();
+        self.front
+            .first()
+            .map(|&k| (k as usize, self.time[k as usize]))
     }
+
     fn pop(&mut self) -> Option<(usize, f64)> {
-        self.0.pop()
+        self.settle();
+        let &k = self.front.first()?;
+        self.front_remove(0);
+        self.place[k as usize] = Place::Absent;
+        self.len -= 1;
+        self.ops += 1;
+        Some((k as usize, self.time[k as usize]))
     }
+
     fn len(&self) -> usize {
-        self.0.len()
+        self.len
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_xoshiro::Xoshiro256PlusPlus;
+
+    impl CalendarQueue {
+        /// Asserts the invariants stated on the fields.
+        fn check_invariants(&self) {
+            let nb = self.buckets.len();
+            assert!(self.cur < nb || (nb == 0 && self.cur == 0));
+            assert!(nb > 0 || self.overflow.is_empty());
+            for (i, &k) in self.front.iter().enumerate() {
+                assert_eq!(self.place[k as usize], Place::Front(i as u32));
+                assert!(self.slot(self.time[k as usize]) <= self.cur);
+                if i > 0 {
+                    assert!(self.before(self.front[(i - 1) / 2], k));
+                }
+            }
+            let mut in_buckets = 0;
+            for (b, bucket) in self.buckets.iter().enumerate() {
+                assert!(b > self.cur || bucket.is_empty());
+                for (pos, &k) in bucket.iter().enumerate() {
+                    let (index, pos) = (b as u32, pos as u32);
+                    assert_eq!(self.place[k as usize], Place::Bucket { index, pos });
+                    assert_eq!(self.slot(self.time[k as usize]), b);
+                }
+                in_buckets += bucket.len();
+            }
+            for (pos, &k) in self.overflow.iter().enumerate() {
+                assert_eq!(self.place[k as usize], Place::Overflow(pos as u32));
+                assert_eq!(self.slot(self.time[k as usize]), nb);
+            }
+            let total = self.front.len() + in_buckets + self.overflow.len();
+            assert_eq!(total, self.len);
+            let present = self.place.iter().filter(|&&p| p != Place::Absent).count();
+            assert_eq!(present, self.len);
+        }
+    }
+
+    /// The hold pattern keeps the calendar in calendar mode with a small front, with or
+    /// without a reset, and the invariants hold throughout.
+    #[test]
+    fn hold_pattern_stays_a_calendar() {
+        for use_reset in [true, false] {
+            let n = 4096;
+            let mut rng = Xoshiro256PlusPlus::seed_from_u64(7);
+            let mut q = CalendarQueue::with_capacity(n);
+            if use_reset {
+                q.reset(0.0, 8.0, n);
+            }
+            for k in 0..n {
+                q.schedule(k, -rng.gen::<f64>().ln());
+            }
+            let mut max_front = 0;
+            for i in 0..200_000 {
+                let (k, t) = q.pop().unwrap();
+                q.schedule(k, t - rng.gen::<f64>().ln());
+                q.schedule(rng.gen_range(0..n), t - rng.gen::<f64>().ln());
+                if i > 1000 {
+                    assert!(!q.buckets.is_empty(), "heap mode at pop {i}");
+                    max_front = max_front.max(q.front.len());
+                }
+                if i % 10_000 == 0 {
+                    q.check_invariants();
+                }
+            }
+            q.check_invariants();
+            assert!(max_front <= FRONT_LIMIT, "front grew to {max_front}");
+        }
+    }
+
+    /// A window far too wide crowds the front; the queue rebuilds itself a fitting calendar.
+    #[test]
+    fn bad_window_is_repaired() {
+        let n = 10_000;
+        let mut q = CalendarQueue::with_capacity(n);
+        q.reset(0.0, 1e9, 16);
+        for k in 0..n {
+            q.schedule(k, k as f64 * 1e-3);
+        }
+        for k in 0..n {
+            assert_eq!(q.pop(), Some((k, k as f64 * 1e-3)));
+            assert!(q.front.len() <= FRONT_LIMIT + 1);
+            if k % 1000 == 0 {
+                q.check_invariants();
+            }
+        }
+        assert_eq!(q.pop(), None);
     }
 }

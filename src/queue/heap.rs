@@ -29,13 +29,17 @@ impl Ord for Stamp {
 }
 
 /// Keys are dense particle indices: hashing them through SipHash would only cost time, so
-/// the heap's index map uses the key itself as its hash.
+/// the heap's index map hashes a key with one multiplication by 2^64 / golden ratio
+/// (Fibonacci hashing). The key itself would not do: hashbrown, under the index map, takes
+/// each slot's tag from the top 7 bits of the hash, which are zero for every small key, so
+/// every probe matches every occupied slot; with the identity hash the hold pattern cost
+/// grew about linearly with the queue size (7 µs per hold at 10^5 keys instead of 0.9 µs).
 #[derive(Default)]
-struct IdentityHasher(u64);
+struct KeyHasher(u64);
 
-impl Hasher for IdentityHasher {
+impl Hasher for KeyHasher {
     fn finish(&self) -> u64 {
-        self.0
+        self.0.wrapping_mul(0x9E37_79B9_7F4A_7C15)
     }
     fn write(&mut self, bytes: &[u8]) {
         for &b in bytes {
@@ -49,7 +53,7 @@ impl Hasher for IdentityHasher {
 
 /// Indexed binary heap: `O(log n)` schedule, cancel and pop, `O(1)` peek.
 pub struct HeapQueue {
-    heap: PriorityQueue<usize, Reverse<Stamp>, BuildHasherDefault<IdentityHasher>>,
+    heap: PriorityQueue<usize, Reverse<Stamp>, BuildHasherDefault<KeyHasher>>,
 }
 
 impl EventQueue for HeapQueue {

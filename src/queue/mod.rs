@@ -29,7 +29,7 @@ pub use heap::HeapQueue;
 ///   `f64::total_cmp`; `pop()` returns the same entry and removes it;
 /// - times are finite; scheduled times are never earlier than the time of the last popped
 ///   entry minus rounding (the kernel only schedules events in the present or future),
-///   and never later than the `end` of the current [`EventQueue::set_window`] by more than
+///   and never later than the `end` of the current [`EventQueue::reset`] by more than
 ///   rounding; implementations must stay correct (if slower) when these are violated.
 pub trait EventQueue {
     /// An empty queue for keys `0..capacity`.
