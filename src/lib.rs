@@ -2,6 +2,7 @@
 #![warn(missing_docs)]
 
 pub mod boundary;
+pub mod geometry;
 pub mod io;
 pub mod kernel;
 pub mod protocol;

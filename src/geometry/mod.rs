@@ -1,0 +1,3 @@
+//! Geometry of hard particles: exact intersection tests between spheres and finite cylinders.
+
+pub mod cylinder;
