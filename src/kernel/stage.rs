@@ -143,7 +143,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             p.shape.set_growth(0.0, stage.growth);
         }
         let growing = stage.growth != Growth::None;
-        if stage.thermostat && self.particles.len() > 1 {
+        if stage.thermostat {
             self.rescale_temperature();
         }
         // Simulated time at which the goal is met exactly, if the goal is a time.
@@ -186,7 +186,11 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             let events_before = self.counters.events;
             self.begin_interval(this);
             let completed = self.run_interval(&mut budget);
-            let t_end = if completed { self.barrier_time } else { self.time };
+            let t_end = if completed {
+                self.barrier_time
+            } else {
+                self.time
+            };
             let events = self.counters.events - events_before;
             // Pressure over the interval, from the virial and the mean of Σmv² at its ends.
             let virial = self.virial;
@@ -202,7 +206,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             self.synchronise_and_rebase(t_end);
             self.counters.barriers += 1;
             stage_time += t_end;
-            if stage.thermostat && growing && self.particles.len() > 1 {
+            if stage.thermostat && growing {
                 self.rescale_temperature();
             }
             if !completed {

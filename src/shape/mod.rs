@@ -65,8 +65,14 @@ pub trait Collidable: Clone + Send + Sync + 'static {
     /// First contact time `τ ∈ [0, max_tau]` after time `t` of particles `a` and `b`, whose
     /// centres are at relative position `dr = c_a − c_b` (minimum image) and relative velocity
     /// `dv = v_a − v_b` at time `t`. `None` if they do not touch within the window.
-    fn predict_collision(a: &Self, b: &Self, dr: &Vec3, dv: &Vec3, t: f64, max_tau: f64)
-        -> Option<f64>;
+    fn predict_collision(
+        a: &Self,
+        b: &Self,
+        dr: &Vec3,
+        dv: &Vec3,
+        t: f64,
+        max_tau: f64,
+    ) -> Option<f64>;
     /// Resolves a contact at time `t`: returns the impulse on `a` (the impulse on `b` is its
     /// negative) for masses `ma`, `mb`. Elastic in the frame of the growing surfaces: the
     /// normal gap velocity is reflected, so the pair always separates.
@@ -152,8 +158,9 @@ mod tests {
         assert_eq!(first_falling_root(1.0, -1.0, 0.0), Some(0.0));
         // growth dominates (a < 0), currently separating: f = −τ² + 2τ + 3 → root 3.
         assert_eq!(first_falling_root(-1.0, 1.0, 3.0), Some(3.0));
-        // tiny gap, slow approach: no cancellation, τ = c / (2|b|) to first order.
-        let tau = first_falling_root(1.0, -1e-9, 1e-20).unwrap();
-        assert!((tau - 5e-12).abs() < 1e-24, "{tau}");
+        // Tiny gap: the textbook form 1 − √(1 − 10⁻²⁰) rounds to 0; the exact root is
+        // c/(2|b|)·(1 + O(c)) = 5·10⁻²¹.
+        let tau = first_falling_root(1.0, -1.0, 1e-20).unwrap();
+        assert!((tau - 5e-21).abs() < 1e-15 * 5e-21, "{tau}");
     }
 }
