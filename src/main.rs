@@ -12,7 +12,11 @@ use std::process::ExitCode;
 const DEFAULT_SCENE: &str = include_str!("../examples/scenes/mono_periodic_jam.toml");
 
 #[derive(Parser)]
-#[command(name = "densepack", version, about = "Dense random packings of hard particles")]
+#[command(
+    name = "densepack",
+    version,
+    about = "Dense random packings of hard particles"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
@@ -136,7 +140,10 @@ fn verify(path: &PathBuf, json: bool) -> ExitCode {
     };
     let v = densepack::verify::verify(&packing);
     if json {
-        println!("{}", serde_json::to_string_pretty(&v).expect("serialisable"));
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&v).expect("serialisable")
+        );
     } else {
         println!(
             "particles {}  packing_fraction {:.6}  min pair gap {:.3e} (relative {:.3e})  min wall gap {}  violations {}",

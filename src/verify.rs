@@ -76,7 +76,10 @@ pub fn verify(packing: &Packing) -> Verification {
     };
     for (i, b) in balls.iter().enumerate() {
         if !(b.r.is_finite() && b.r > 0.0 && b.c.iter().all(|x| x.is_finite())) {
-            violate(&mut out, format!("particle {i}: non-finite centre or radius ≤ 0"));
+            violate(
+                &mut out,
+                format!("particle {i}: non-finite centre or radius ≤ 0"),
+            );
         }
     }
     let (lo, hi, periodic, volume) = match &packing.container {
@@ -91,8 +94,16 @@ pub fn verify(packing: &Packing) -> Verification {
             radius,
             height,
         } => (
-            [base_center[0] - radius, base_center[1] - radius, base_center[2]],
-            [base_center[0] + radius, base_center[1] + radius, base_center[2] + height],
+            [
+                base_center[0] - radius,
+                base_center[1] - radius,
+                base_center[2],
+            ],
+            [
+                base_center[0] + radius,
+                base_center[1] + radius,
+                base_center[2] + height,
+            ],
             [false; 3],
             std::f64::consts::PI * radius * radius * height,
         ),
@@ -124,7 +135,10 @@ pub fn verify(packing: &Packing) -> Verification {
             if periodic[k] && !(b.c[k] >= lo[k] && b.c[k] <= hi[k]) {
                 violate(
                     &mut out,
-                    format!("particle {i}: centre {:?} is not wrapped into the periodic box", b.c),
+                    format!(
+                        "particle {i}: centre {:?} is not wrapped into the periodic box",
+                        b.c
+                    ),
                 );
             }
         }
@@ -195,7 +209,9 @@ pub fn verify(packing: &Packing) -> Verification {
                         continue;
                     }
                     seen.push(kj);
-                    let Some(members) = cells.get(&kj) else { continue };
+                    let Some(members) = cells.get(&kj) else {
+                        continue;
+                    };
                     for &j in members {
                         if j <= i {
                             continue;

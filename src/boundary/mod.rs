@@ -38,8 +38,14 @@ pub trait Boundary: Clone + Send + Sync + 'static {
     fn wrap(&self, p: &mut Vec3);
     /// First time `τ ∈ [0, max_tau]` at which a sphere of radius `r` growing at `g`, with
     /// centre `p` moving at `v`, touches a wall, and which wall.
-    fn predict_wall(&self, p: &Vec3, v: &Vec3, r: f64, g: f64, max_tau: f64)
-        -> Option<(f64, WallId)>;
+    fn predict_wall(
+        &self,
+        p: &Vec3,
+        v: &Vec3,
+        r: f64,
+        g: f64,
+        max_tau: f64,
+    ) -> Option<(f64, WallId)>;
     /// Unit normal of `wall` pointing into the container, at the contact of a sphere
     /// centred at `p`.
     fn wall_normal(&self, wall: WallId, p: &Vec3) -> Vec3;
@@ -286,9 +292,13 @@ impl Boundary for CylinderContainer {
         // Mantle: the axial offset q must stay within the free radius R − r(τ).
         let q = nalgebra::Vector2::new(p.x - self.base_center.x, p.y - self.base_center.y);
         let u = nalgebra::Vector2::new(v.x, v.y);
-        if let Some(tau) =
-            exit_ball_time(q.norm_squared(), q.dot(&u), u.norm_squared(), self.radius - r, g)
-        {
+        if let Some(tau) = exit_ball_time(
+            q.norm_squared(),
+            q.dot(&u),
+            u.norm_squared(),
+            self.radius - r,
+            g,
+        ) {
             consider(tau, MANTLE);
         }
         best
@@ -321,7 +331,10 @@ impl Boundary for CylinderContainer {
         }
         let rho = s * rng.gen::<f64>().sqrt();
         let phi = std::f64::consts::TAU * rng.gen::<f64>();
-        Some(self.base_center + Vec3::new(rho * phi.cos(), rho * phi.sin(), r + h * rng.gen::<f64>()))
+        Some(
+            self.base_center
+                + Vec3::new(rho * phi.cos(), rho * phi.sin(), r + h * rng.gen::<f64>()),
+        )
     }
 }
 
@@ -331,7 +344,10 @@ mod tests {
 
     #[test]
     fn minimum_image_picks_nearest_copy() {
-        let b = PeriodicBox { min: Vec3::zeros(), len: Vec3::new(10.0, 10.0, 10.0) };
+        let b = PeriodicBox {
+            min: Vec3::zeros(),
+            len: Vec3::new(10.0, 10.0, 10.0),
+        };
         let mut dr = Vec3::new(9.0, -6.0, 2.0);
         b.minimum_image(&mut dr);
         assert_eq!(dr, Vec3::new(-1.0, 4.0, 2.0));
@@ -339,10 +355,20 @@ mod tests {
 
     #[test]
     fn growing_sphere_meets_box_wall() {
-        let b = WalledBox { min: Vec3::zeros(), max: Vec3::new(4.0, 4.0, 4.0), periodic: [false; 3] };
+        let b = WalledBox {
+            min: Vec3::zeros(),
+            max: Vec3::new(4.0, 4.0, 4.0),
+            periodic: [false; 3],
+        };
         // centre at x = 1, radius 0.5, moving −x at 0.25 and growing at 0.25: gap 0.5, rate 0.5.
         let (tau, wall) = b
-            .predict_wall(&Vec3::new(1.0, 2.0, 2.0), &Vec3::new(-0.25, 0.0, 0.0), 0.5, 0.25, 10.0)
+            .predict_wall(
+                &Vec3::new(1.0, 2.0, 2.0),
+                &Vec3::new(-0.25, 0.0, 0.0),
+                0.5,
+                0.25,
+                10.0,
+            )
             .unwrap();
         assert_eq!(wall, 0);
         // y and z walls: gap 1.5 at rate 0.25 → 6; x: 1.0.
@@ -351,9 +377,19 @@ mod tests {
 
     #[test]
     fn sphere_meets_cylinder_mantle() {
-        let c = CylinderContainer { base_center: Vec3::zeros(), radius: 5.0, height: 100.0 };
+        let c = CylinderContainer {
+            base_center: Vec3::zeros(),
+            radius: 5.0,
+            height: 100.0,
+        };
         let (tau, wall) = c
-            .predict_wall(&Vec3::new(1.0, 0.0, 50.0), &Vec3::new(2.0, 0.0, 0.0), 1.0, 0.0, 10.0)
+            .predict_wall(
+                &Vec3::new(1.0, 0.0, 50.0),
+                &Vec3::new(2.0, 0.0, 0.0),
+                1.0,
+                0.0,
+                10.0,
+            )
             .unwrap();
         assert_eq!(wall, MANTLE);
         assert!((tau - 1.5).abs() < 1e-14, "{tau}");

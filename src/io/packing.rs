@@ -126,7 +126,8 @@ impl Packing {
             path: path.display().to_string(),
             message,
         };
-        let packing: Packing = serde_json::from_str(&text).map_err(|e| format_err(e.to_string()))?;
+        let packing: Packing =
+            serde_json::from_str(&text).map_err(|e| format_err(e.to_string()))?;
         if packing.format != FORMAT || packing.version != 1 {
             return Err(format_err(format!(
                 "format {:?} version {} (expected {FORMAT:?} version 1)",

@@ -215,7 +215,10 @@ fn fraction(field: &str, x: f64) -> Result<(), SceneError> {
     if x.is_finite() && x > 0.0 && x < 1.0 {
         Ok(())
     } else {
-        Err(invalid(field, format!("= {x} is outside the allowed range (0, 1)")))
+        Err(invalid(
+            field,
+            format!("= {x} is outside the allowed range (0, 1)"),
+        ))
     }
 }
 
@@ -299,7 +302,10 @@ impl Scene {
         match (&p.components, p.count, p.diameter) {
             (Some(cs), None, None) => {
                 if cs.is_empty() {
-                    return Err(invalid("particles.components", "needs at least one component"));
+                    return Err(invalid(
+                        "particles.components",
+                        "needs at least one component",
+                    ));
                 }
                 for (k, c) in cs.iter().enumerate() {
                     if c.count == 0 {
@@ -431,9 +437,11 @@ impl Scene {
                     .iter()
                     .filter_map(|s| s.until.packing_fraction)
                     .fold(final_phi, f64::max);
-                if self.stages.iter().any(|s| {
-                    s.growth != GrowthKind::None && s.until.packing_fraction.is_none()
-                }) {
+                if self
+                    .stages
+                    .iter()
+                    .any(|s| s.growth != GrowthKind::None && s.until.packing_fraction.is_none())
+                {
                     final_phi = final_phi.max(KEPLER_FRACTION);
                 }
             }

@@ -234,11 +234,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         }
         if n > 1 {
             let total_mass: f64 = masses.iter().sum();
-            let momentum: Vec3 = particles
-                .iter()
-                .zip(&masses)
-                .map(|(p, m)| p.vel * *m)
-                .sum();
+            let momentum: Vec3 = particles.iter().zip(&masses).map(|(p, m)| p.vel * *m).sum();
             let drift = momentum / total_mass;
             for p in &mut particles {
                 p.vel -= drift;
@@ -305,7 +301,11 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
 
     /// Packing fraction at kernel time `t`.
     pub fn packing_fraction_at(&self, t: f64) -> f64 {
-        self.particles.iter().map(|p| p.shape.volume(t)).sum::<f64>() / self.boundary.volume()
+        self.particles
+            .iter()
+            .map(|p| p.shape.volume(t))
+            .sum::<f64>()
+            / self.boundary.volume()
     }
 
     /// Total momentum `Σ m v`.
@@ -338,7 +338,10 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
 
     /// Cell width that holds every neighour-list sphere existing now or built up to time `t`.
     fn needed_cell_width(&self, t: f64) -> f64 {
-        let current = self.list_radius.iter().fold(0.0_f64, |m, &r| m.max(2.0 * r));
+        let current = self
+            .list_radius
+            .iter()
+            .fold(0.0_f64, |m, &r| m.max(2.0 * r));
         current.max((1.0 + self.config.neighbour_skin) * self.max_diameter(t))
     }
 
@@ -361,7 +364,11 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let b = &self.boundary;
         let n = self.particles.len();
         self.grid = CellGrid::new(b.min(), b.max(), b.periodic(), width, n);
-        let cells: Vec<u32> = self.list_centre.iter().map(|c| self.grid.cell_at(c)).collect();
+        let cells: Vec<u32> = self
+            .list_centre
+            .iter()
+            .map(|c| self.grid.cell_at(c))
+            .collect();
         let mut order: Vec<u32> = (0..n as u32).collect();
         order.sort_by_key(|&i| (cells[i as usize], i));
         let mut new_index = vec![0u32; n];
@@ -369,7 +376,10 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             new_index[old as usize] = new as u32;
         }
         let permute = |v: &mut Vec<_>| {
-            let moved: Vec<_> = order.iter().map(|&o| std::mem::take(&mut v[o as usize])).collect();
+            let moved: Vec<_> = order
+                .iter()
+                .map(|&o| std::mem::take(&mut v[o as usize]))
+                .collect();
             *v = moved;
         };
         fn permute_copy<T: Copy>(v: &mut Vec<T>, order: &[u32]) {
@@ -379,7 +389,10 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         permute_copy(&mut self.list_centre, &order);
         permute_copy(&mut self.list_radius, &order);
         permute_copy(&mut self.ids, &order);
-        self.particles = order.iter().map(|&o| self.particles[o as usize].clone()).collect();
+        self.particles = order
+            .iter()
+            .map(|&o| self.particles[o as usize].clone())
+            .collect();
         let mut neighbours = std::mem::take(&mut self.neighbours);
         permute(&mut neighbours);
         for list in &mut neighbours {
@@ -717,7 +730,10 @@ impl EventBudget {
                 return false;
             }
             self.time_at_check = now;
-            if self.deadline.is_some_and(|d| std::time::Instant::now() >= d) {
+            if self
+                .deadline
+                .is_some_and(|d| std::time::Instant::now() >= d)
+            {
                 self.stopped = Some(StopReason::WallClockLimit);
                 return false;
             }

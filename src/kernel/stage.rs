@@ -186,7 +186,11 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             let events_before = self.counters.events;
             self.begin_interval(this);
             let completed = self.run_interval(&mut budget);
-            let t_end = if completed { self.barrier_time } else { self.time };
+            let t_end = if completed {
+                self.barrier_time
+            } else {
+                self.time
+            };
             let events = self.counters.events - events_before;
             // Pressure over the interval, from the virial and the mean of Σmv² at its ends.
             let virial = self.virial;

@@ -65,8 +65,14 @@ pub trait Collidable: Clone + Send + Sync + 'static {
     /// First contact time `τ ∈ [0, max_tau]` after time `t` of particles `a` and `b`, whose
     /// centres are at relative position `dr = c_a − c_b` (minimum image) and relative velocity
     /// `dv = v_a − v_b` at time `t`. `None` if they do not touch within the window.
-    fn predict_collision(a: &Self, b: &Self, dr: &Vec3, dv: &Vec3, t: f64, max_tau: f64)
-        -> Option<f64>;
+    fn predict_collision(
+        a: &Self,
+        b: &Self,
+        dr: &Vec3,
+        dv: &Vec3,
+        t: f64,
+        max_tau: f64,
+    ) -> Option<f64>;
     /// Resolves a contact at time `t`: returns the impulse on `a` (the impulse on `b` is its
     /// negative) for masses `ma`, `mb`. Elastic in the frame of the growing surfaces: the
     /// normal gap velocity is reflected, so the pair always separates.

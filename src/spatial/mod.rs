@@ -214,7 +214,6 @@ impl CellGrid {
         }
         set
     }
-
 }
 
 /// Iterator over the members of a cell.
@@ -242,10 +241,22 @@ mod tests {
 
     #[test]
     fn neighbourhood_is_27_cells_in_big_periodic_grid() {
-        let g = CellGrid::new(Vec3::zeros(), Vec3::new(10.0, 10.0, 10.0), [true; 3], 1.0, 1000);
+        let g = CellGrid::new(
+            Vec3::zeros(),
+            Vec3::new(10.0, 10.0, 10.0),
+            [true; 3],
+            1.0,
+            1000,
+        );
         assert_eq!(g.dims(), [10, 10, 10]);
         assert_eq!(g.neighbourhood(0).as_slice().len(), 27);
-        let walled = CellGrid::new(Vec3::zeros(), Vec3::new(10.0, 10.0, 10.0), [false; 3], 1.0, 1000);
+        let walled = CellGrid::new(
+            Vec3::zeros(),
+            Vec3::new(10.0, 10.0, 10.0),
+            [false; 3],
+            1.0,
+            1000,
+        );
         assert_eq!(walled.neighbourhood(0).as_slice().len(), 8);
     }
 
