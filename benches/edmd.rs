@@ -13,7 +13,7 @@
 //!   φ = 0.50, equilibrate without growth for 20 collisions per particle, then a measured
 //!   stage without growth (100 collisions per particle; 20 with `--quick`). Reports the
 //!   collisions/s and events/s of the measured stage only, and its time-averaged `Z` as a
-//!   sanity check (Carnahan–Starling gives 6.06 at φ = 0.5). N = 10⁴, 10⁵ (quick: 10⁴).
+//!   sanity check (Carnahan–Starling gives 13.0 at φ = 0.5). N = 10⁴, 10⁵ (quick: 10⁴).
 //! * `jamming` — the default scene `examples/scenes/mono_periodic_jam.toml` (10⁴ spheres from
 //!   φ = 0.3 to `Z = 1e12`) at its rate 0.02 and at 0.05 and 0.1, both queues: wall seconds,
 //!   collisions, collisions/s, final φ. Quick: the same scene with 2000 spheres (box scaled
@@ -434,7 +434,7 @@ fn equilibrium(quick: bool) -> String {
             "Periodic cube, monodisperse, RSA at φ = 0.3, growth rate 0.1 (thermostat) to \
              φ = 0.50, 20 collisions/particle without growth, then the measured stage without \
              growth: {cpp} collisions/particle. Rates are of the measured stage only. \
-             Z: time average ± standard error (Carnahan–Starling: 6.06)."
+             Z: time average ± standard error (Carnahan–Starling: 13.0)."
         ),
         &[
             "N",
