@@ -19,8 +19,10 @@
 //!   collisions, collisions/s, final φ. Quick: the same scene with 2000 spheres (box scaled
 //!   to keep the diameter) at rate 0.02.
 //! * `scaling` — cost per event against N (paper Fig. 4): grow at rate 0.1 from φ = 0.3 to
-//!   φ = 0.60, then time a stage without growth of 10 collisions per particle (quick: 5);
-//!   µs/event and the least-squares slope of µs/event against log₁₀ N per queue.
+//!   φ = 0.60, then time a stage without growth of 10 collisions per particle (quick: 5),
+//!   repeated back to back for small N (a single stage of 10⁴ events is too short to time)
+//!   and summarised by the median; µs/event and the least-squares slope of µs/event
+//!   against log₁₀ N per queue.
 //!   N = 10³…10⁶ (quick: 10³, 10⁴). A bidisperse variant (diameters 1.0 and 1.6, 50/50 by
 //!   count) grows to φ = 0.58 instead, N = 10³…10⁵ (quick: 10³, 10⁴).
 //! * `tuning` — justifies the defaults of `neighbour_skin` (0.1) and
@@ -408,6 +410,23 @@ fn micros_per_event(r: &StageReport) -> f64 {
     1e6 * r.wall_seconds / r.counts.events.max(1) as f64
 }
 
+/// How often the `scaling` study repeats its timed stage at `n` particles: a stage of
+/// 10⁴ events lasts about 10 ms, too short to time alone.
+fn repeats(n: usize) -> usize {
+    (200_000 / n).clamp(1, 50)
+}
+
+/// Median of a non-empty sample.
+fn median(mut xs: Vec<f64>) -> f64 {
+    xs.sort_by(f64::total_cmp);
+    let m = xs.len() / 2;
+    if xs.len() % 2 == 0 {
+        0.5 * (xs[m - 1] + xs[m])
+    } else {
+        xs[m]
+    }
+}
+
 /// Least-squares slope of `y` against `x`, if at least two points.
 fn slope(points: &[(f64, f64)]) -> Option<f64> {
     if points.len() < 2 {
@@ -613,10 +632,13 @@ fn scaling_table(
         title,
         &format!(
             "Periodic cube, RSA at φ = 0.3, growth rate 0.1 (thermostat) to φ = {phi}, then \
-             the timed stage without growth: {cpp} collisions/particle."
+             the timed stage without growth: {cpp} collisions/particle, run `repeats` times \
+             in a row (max(1, min(50, 2·10⁵/N))); µs/event and events/s are the medians \
+             over the repeats."
         ),
         &[
             "N",
+            "repeats",
             "heap µs/event",
             "calendar µs/event",
             "heap events/s",
@@ -626,22 +648,24 @@ fn scaling_table(
     let mut fits: [Vec<(f64, f64)>; 2] = [Vec::new(), Vec::new()];
     let mut errors = String::new();
     for &n in sizes {
+        let repeats = repeats(n);
+        let mut stages = vec![grow_to_fraction(0.1, phi)];
+        stages.extend(std::iter::repeat_n(hold(cpp), repeats));
         let mut micros = vec![String::new(); 2];
         let mut rates = vec![String::new(); 2];
         for (q, queue) in QUEUES.iter().enumerate() {
-            let scene = scene(
-                queue,
-                particles(n),
-                Tuning::default(),
-                &[grow_to_fraction(0.1, phi), hold(cpp)],
-            );
+            let scene = scene(queue, particles(n), Tuning::default(), &stages);
             match run(&format!("{title}: {queue} N = {n}"), &scene) {
-                Ok(stages) => {
-                    let r = stages.last().expect("the scene has two stages");
-                    let us = micros_per_event(r);
+                Ok(reports) => {
+                    let us = median(reports[1..].iter().map(micros_per_event).collect());
                     fits[q].push(((n as f64).log10(), us));
                     micros[q] = format!("{us:.3}");
-                    rates[q] = si(per_second(r.counts.events, r));
+                    rates[q] = si(median(
+                        reports[1..]
+                            .iter()
+                            .map(|r| per_second(r.counts.events, r))
+                            .collect(),
+                    ));
                 }
                 Err(e) => {
                     micros[q] = "failed".into();
@@ -649,11 +673,12 @@ fn scaling_table(
                 }
             }
         }
-        table.row([vec![n.to_string()], micros, rates].concat());
+        table.row([vec![n.to_string(), repeats.to_string()], micros, rates].concat());
     }
     let fitted = |k: usize| slope(&fits[k]).map_or("n/a".into(), |s| format!("{s:+.4}"));
     table.row(vec![
         "slope per decade".into(),
+        String::new(),
         fitted(0),
         fitted(1),
         String::new(),
