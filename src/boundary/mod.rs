@@ -83,13 +83,15 @@ impl Boundary for PeriodicBox {
     }
     #[inline]
     fn minimum_image(&self, dr: &mut Vec3) {
-        // Branch-free: the sign of a separation across the box is random, so a branch per
-        // axis would be mispredicted half the time in the hot loop.
+        // Positions are wrapped, so |dr| < L and one correction suffices; near pairs rarely
+        // straddle a face, so these branches are well predicted.
         for k in 0..3 {
             let l = self.len[k];
-            let up = f64::from(u8::from(dr[k] > 0.5 * l));
-            let down = f64::from(u8::from(dr[k] < -0.5 * l));
-            dr[k] -= l * (up - down);
+            if dr[k] > 0.5 * l {
+                dr[k] -= l;
+            } else if dr[k] < -0.5 * l {
+                dr[k] += l;
+            }
         }
     }
     #[inline]

@@ -137,19 +137,26 @@ impl Packing {
         Ok(packing)
     }
 
-    /// Writes the packing atomically: to a temporary file beside `path`, then renamed, so an
-    /// existing file is never left half-written.
+    /// Writes the packing atomically: streamed to a temporary file beside `path`, then
+    /// renamed, so an existing file is never left half-written and no copy of the whole text
+    /// is held in memory.
     pub fn write(&self, path: &Path) -> Result<(), PackingError> {
-        let text = serde_json::to_string_pretty(self).expect("a packing always serialises");
-        write_atomically(path, text.as_bytes()).map_err(|source| PackingError::Io {
+        write_atomically(path, |w| {
+            serde_json::to_writer_pretty(&mut *w, self).map_err(std::io::Error::other)
+        })
+        .map_err(|source| PackingError::Io {
             path: path.display().to_string(),
             source,
         })
     }
 }
 
-/// Writes `bytes` to `path` through a temporary file in the same directory and a rename.
-pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+/// Writes to `path` through a temporary file in the same directory and a rename; `fill`
+/// writes the content. On any error the temporary file is removed and `path` is untouched.
+pub fn write_atomically(
+    path: &Path,
+    fill: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>,
+) -> std::io::Result<()> {
     use std::io::Write;
     let dir = path
         .parent()
@@ -161,9 +168,10 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
         .unwrap_or_else(|| "packing".into());
     let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
     let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
+        let mut w = std::io::BufWriter::new(std::fs::File::create(&tmp)?);
+        fill(&mut w)?;
+        w.flush()?;
+        w.get_ref().sync_all()?;
         std::fs::rename(&tmp, path)
     })();
     if result.is_err() {

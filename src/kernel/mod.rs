@@ -48,8 +48,10 @@
 //! from each centre to the contact point summed over the bodies that move (`σ` for a pair of
 //! spheres, `r` for a sphere against a wall: then `Z` is the wall pressure).
 
+mod local;
 mod stage;
 
+use local::{EventKind, LocalEvent, LocalList};
 pub use stage::{Limits, Stage, StageReport, StopReason, Until};
 
 use crate::boundary::{Boundary, WallId};
@@ -89,7 +91,8 @@ pub struct KernelConfig {
     pub temperature: f64,
     /// Target number of events per particle between two time barriers.
     pub events_per_particle_per_interval: f64,
-    /// Neighbour-list skin relative to the particle's bounding radius: `R = (1 + skin)·r`.
+    /// Initial neighbour-list skin relative to the particle's bounding radius:
+    /// `R = (1 + skin)·r`. The kernel adapts it at barriers (see [`Edmd::skin`]).
     pub neighbour_skin: f64,
 }
 
@@ -117,25 +120,12 @@ pub struct EventCounts {
     pub neighbour_list_updates: u64,
     /// Stale queue entries skipped (not counted in `events`).
     pub stale: u64,
+    /// Particles predicted afresh because their truncated local list ran empty.
+    pub repredictions: u64,
     /// Time barriers.
     pub barriers: u64,
     /// Cell grid rebuilds.
     pub grid_rebuilds: u64,
-}
-
-#[derive(Clone, Copy, Debug)]
-enum EventKind {
-    Collision,
-    Wall(WallId),
-    NeighbourList,
-}
-
-#[derive(Clone, Copy, Debug)]
-struct LocalEvent {
-    time: f64,
-    partner: u32,
-    partner_count: u32,
-    kind: EventKind,
 }
 
 /// Which partners a prediction pass considers.
@@ -156,7 +146,7 @@ enum Partners {
 pub struct Edmd<S: Collidable, B: Boundary, Q: EventQueue> {
     particles: Vec<Particle<S>>,
     counts: Vec<u32>,
-    local: Vec<Vec<LocalEvent>>,
+    local: Vec<LocalList>,
     /// Centres of the neighbour-list spheres (wrapped into the box).
     list_centre: Vec<Vec3>,
     /// Radii of the neighbour-list spheres.
@@ -186,6 +176,10 @@ pub struct Edmd<S: Collidable, B: Boundary, Q: EventQueue> {
     /// `Σ m v²` right after the last barrier.
     kinetic_start: f64,
     counters: EventCounts,
+    /// Neighbour-list updates counted when the particles were last sorted into cell order.
+    updates_at_sort: u64,
+    /// Current neighbour-list skin (relative to the radius).
+    skin: f64,
 }
 
 impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
@@ -241,9 +235,10 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             }
         }
         let grid = CellGrid::new(boundary.min(), boundary.max(), boundary.periodic(), 1.0, 0);
+        let skin = config.neighbour_skin;
         let mut kernel = Self {
             counts: vec![0; n],
-            local: vec![Vec::new(); n],
+            local: vec![LocalList::default(); n],
             list_centre: particles.iter().map(|p| p.pos).collect(),
             list_radius: particles
                 .iter()
@@ -264,6 +259,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             virial: 0.0,
             kinetic_start: 0.0,
             counters: EventCounts::default(),
+            updates_at_sort: 0,
+            skin,
         };
         kernel.rescale_temperature();
         kernel.rebuild_grid(kernel.needed_cell_width(0.0));
@@ -290,6 +287,31 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// Event counts since the kernel was built.
     pub fn counters(&self) -> EventCounts {
         self.counters
+    }
+
+    /// Current neighbour-list skin, relative to the radius.
+    ///
+    /// A thick skin means long lists (more predictions per collision), a thin one frequent
+    /// list updates. After every barrier interval the skin is multiplied by 1.2 when there
+    /// were more than 0.3 updates per collision and divided by 1.2 below 0.1, within
+    /// `[0.01, 1]`: a fluid settles near 0.3–0.4, a packing near jamming (particles rattle
+    /// in tiny cages) shrinks its lists to the touching neighbours. Measured in
+    /// BENCHMARKS.md.
+    pub fn skin(&self) -> f64 {
+        self.skin
+    }
+
+    /// Adapts the skin to the list updates and collisions of the last interval.
+    fn adapt_skin(&mut self, collisions: u64, updates: u64) {
+        if collisions + updates < self.particles.len() as u64 {
+            return; // too few events to judge
+        }
+        let ratio = updates as f64 / collisions.max(1) as f64;
+        if ratio > 0.3 {
+            self.skin = (self.skin * 1.2).min(1.0);
+        } else if ratio < 0.1 {
+            self.skin = (self.skin / 1.2).max(0.01);
+        }
     }
 
     /// Simulated time since the kernel was built.
@@ -340,7 +362,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             .list_radius
             .iter()
             .fold(0.0_f64, |m, &r| m.max(2.0 * r));
-        current.max((1.0 + self.config.neighbour_skin) * self.max_diameter(t))
+        current.max((1.0 + self.skin) * self.max_diameter(t))
     }
 
     fn rescale_temperature(&mut self) {
@@ -403,6 +425,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             self.grid.insert(i, cells[o as usize]);
         }
         self.counters.grid_rebuilds += 1;
+        self.updates_at_sort = self.counters.neighbour_list_updates;
     }
 
     /// Whether the neighbour-list spheres of `i` and `j` overlap.
@@ -448,8 +471,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let mut new = old;
         new.clear();
         self.list_centre[i] = self.particles[i].pos;
-        self.list_radius[i] =
-            (1.0 + self.config.neighbour_skin) * self.particles[i].shape.bounding_radius(t);
+        self.list_radius[i] = (1.0 + self.skin) * self.particles[i].shape.bounding_radius(t);
         self.grid.remove(i);
         let cell = self.grid.cell_at(&self.list_centre[i]);
         self.grid.insert(i, cell);
@@ -483,11 +505,15 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.interval = interval;
         self.barrier_time = interval;
         let needed = self.needed_cell_width(interval);
+        let n = self.particles.len();
         if self.grid.min_width() < needed {
             // Rebuild with a small margin so that slow growth does not rebuild every barrier.
             self.rebuild_grid(needed * 1.05);
+        } else if self.counters.neighbour_list_updates - self.updates_at_sort >= n as u64 {
+            // Particles have moved since they were last sorted into cell order: sort again
+            // (cheap next to the ~N events of an interval; keeps neighbours in cache).
+            self.rebuild_grid(self.grid.min_width());
         }
-        let n = self.particles.len();
         self.queue.reset(0.0, interval, n);
         for list in &mut self.local {
             list.clear();
@@ -525,12 +551,13 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 let dv = pi.vel - pj.vel;
                 if let Some(tau) = S::predict_collision(&pi.shape, &pj.shape, &dr, &dv, t, max_tau)
                 {
-                    list.push(LocalEvent {
-                        time: t + tau,
-                        partner: j as u32,
-                        partner_count: self.counts[j],
-                        kind: EventKind::Collision,
-                    });
+                    list.push(LocalEvent::new(
+                        t + tau,
+                        EventKind::Collision {
+                            partner: j as u32,
+                            partner_count: self.counts[j],
+                        },
+                    ));
                 }
             }
         }
@@ -547,12 +574,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             let r = p.shape.bounding_radius(t);
             let g = p.shape.bounding_growth_rate();
             if let Some((tau, wall)) = self.boundary.predict_wall(&pos, &p.vel, r, g, max_tau) {
-                self.local[i].push(LocalEvent {
-                    time: t + tau,
-                    partner: i as u32,
-                    partner_count: 0,
-                    kind: EventKind::Wall(wall),
-                });
+                self.local[i].push(LocalEvent::new(t + tau, EventKind::Wall(wall)));
             }
         }
         let mut q = pos - self.list_centre[i];
@@ -561,19 +583,21 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let g = p.shape.bounding_growth_rate();
         let exit = exit_ball_time(q.norm_squared(), q.dot(&p.vel), p.vel.norm_squared(), s, g);
         if let Some(tau) = exit.filter(|&tau| tau <= max_tau) {
-            self.local[i].push(LocalEvent {
-                time: t + tau,
-                partner: i as u32,
-                partner_count: 0,
-                kind: EventKind::NeighbourList,
-            });
+            self.local[i].push(LocalEvent::new(t + tau, EventKind::NeighbourList));
         }
     }
 
-    /// Puts particle `i`'s earliest local event into the queue (or removes it).
+    /// Puts particle `i`'s earliest local event into the queue (or removes it). A list that
+    /// ran empty after dropping predictions is predicted afresh first.
     #[inline]
     fn reschedule(&mut self, i: usize) {
-        match earliest(&self.local[i]) {
+        if self.local[i].is_empty() && self.local[i].truncated() {
+            self.local[i].clear();
+            self.predict_pairs(i, Partners::All);
+            self.predict_own(i);
+            self.counters.repredictions += 1;
+        }
+        match self.local[i].earliest() {
             Some((_, e)) => self.queue.schedule(i, e.time),
             None => self.queue.cancel(i),
         }
@@ -596,13 +620,18 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             if t > self.barrier_time {
                 return true;
             }
-            let (idx, event) = earliest(&self.local[i]).expect("a queued particle has events");
+            let (idx, event) = self.local[i]
+                .earliest()
+                .expect("a queued particle has events");
             self.time = self.time.max(t);
-            match event.kind {
-                EventKind::Collision => {
-                    let j = event.partner as usize;
-                    if self.counts[j] != event.partner_count {
-                        self.local[i].swap_remove(idx);
+            match event.kind() {
+                EventKind::Collision {
+                    partner,
+                    partner_count,
+                } => {
+                    let j = partner as usize;
+                    if self.counts[j] != partner_count {
+                        self.local[i].remove(idx);
                         self.reschedule(i);
                         self.counters.stale += 1;
                         continue;
@@ -683,18 +712,6 @@ fn mass_of<S: Collidable>(rule: MassRule, shape: &S, t: f64, reference_volume: f
         MassRule::Equal => 1.0,
         MassRule::Volume => shape.volume(t) / reference_volume,
     }
-}
-
-/// Index and copy of the earliest event of a local list (first one on ties).
-#[inline]
-fn earliest(list: &[LocalEvent]) -> Option<(usize, LocalEvent)> {
-    let mut best: Option<(usize, LocalEvent)> = None;
-    for (k, e) in list.iter().enumerate() {
-        if best.is_none_or(|(_, b)| e.time < b.time) {
-            best = Some((k, *e));
-        }
-    }
-    best
 }
 
 /// Limits checked while events are processed: event count, wall clock, stalling.

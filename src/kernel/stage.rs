@@ -184,6 +184,10 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 this = this.min((end - stage_time).max(0.0));
             }
             let events_before = self.counters.events;
+            let (collisions_before, updates_before) = (
+                self.counters.collisions,
+                self.counters.neighbour_list_updates,
+            );
             self.begin_interval(this);
             let completed = self.run_interval(&mut budget);
             let t_end = if completed {
@@ -192,6 +196,10 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 self.time
             };
             let events = self.counters.events - events_before;
+            self.adapt_skin(
+                self.counters.collisions - collisions_before,
+                self.counters.neighbour_list_updates - updates_before,
+            );
             // Pressure over the interval, from the virial and the mean of Σmv² at its ends.
             let virial = self.virial;
             let kinetic_end = self.kinetic_twice_at(t_end);
@@ -255,6 +263,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         counts.wall_collisions -= counts_before.wall_collisions;
         counts.neighbour_list_updates -= counts_before.neighbour_list_updates;
         counts.stale -= counts_before.stale;
+        counts.repredictions -= counts_before.repredictions;
         counts.barriers -= counts_before.barriers;
         counts.grid_rebuilds -= counts_before.grid_rebuilds;
         StageReport {

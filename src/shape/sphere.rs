@@ -41,17 +41,26 @@ pub fn predict_sphere_sphere(
     max_tau: f64,
 ) -> Option<f64> {
     let b = dr.dot(dv) - sigma * growth;
-    let dv2 = dv.norm_squared();
-    let a = dv2 - growth * growth;
-    // Cheap rejection: separating and not growing faster than they separate.
-    if b >= 0.0 && a >= 0.0 {
-        let c = dr.norm_squared() - sigma * sigma;
-        if c > 0.0 {
-            return None;
-        }
-    }
+    let a = dv.norm_squared() - growth * growth;
     let c = dr.norm_squared() - sigma * sigma;
-    first_falling_root(a, b, c).filter(|&tau| tau <= max_tau)
+    if c <= 0.0 {
+        // Touching or overlapping by rounding: rare, handled by the general rule.
+        return first_falling_root(a, b, c).filter(|&tau| tau <= max_tau);
+    }
+    // Apart (c > 0), the common case, written without data-dependent branches: whether a
+    // neighbour approaches is a coin flip, and a mispredicted branch costs more than the
+    // arithmetic of both roots. Approaching (b < 0): the root c / (−b + √(b² − ac)) needs
+    // b² ≥ ac. Receding (b ≥ 0): only growth (a < 0) closes the gap, at (b + √(b² − ac))/(−a).
+    let disc = b * b - a * c;
+    let root = disc.max(0.0).sqrt();
+    let approaching = b < 0.0;
+    let tau = if approaching {
+        c / (root - b)
+    } else {
+        (b + root) / -a
+    };
+    let valid = disc >= 0.0 && (approaching || a < 0.0) && tau <= max_tau;
+    valid.then_some(tau)
 }
 
 impl Collidable for Sphere {
