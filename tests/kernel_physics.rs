@@ -220,3 +220,31 @@ fn eight_spheres_in_a_walled_cube_jam_as_a_simple_cubic_lattice() {
     }
     assert_no_overlap(&out.packing);
 }
+
+#[test]
+fn heap_and_calendar_queues_give_bit_identical_packings() {
+    let scene = |queue: &str| {
+        format!(
+            r#"seed = 99
+queue = "{queue}"
+[container]
+type = "box"
+size = [9.0, 9.0, 9.0]
+periodic = [true, false, true]
+[particles]
+components = [{{ count = 300, diameter = 1.0 }}, {{ count = 100, diameter = 1.5 }}]
+packing_fraction = 0.3
+[[stage]]
+growth = "relative"
+rate = 0.05
+until = {{ reduced_pressure = 1e9 }}
+"#
+        )
+    };
+    let heap = run_toml(&scene("heap"));
+    let calendar = run_toml(&scene("calendar"));
+    assert_eq!(heap.packing.particles, calendar.packing.particles);
+    assert_eq!(heap.packing.stats.events, calendar.packing.stats.events);
+    assert!(heap.packing.stats.packing_fraction > 0.6);
+    assert_no_overlap(&heap.packing);
+}
