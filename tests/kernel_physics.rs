@@ -248,3 +248,94 @@ until = {{ reduced_pressure = 1e9 }}
     assert!(heap.packing.stats.packing_fraction > 0.6);
     assert_no_overlap(&heap.packing);
 }
+
+#[test]
+fn cylinder_specimen_with_absolute_growth_stays_inside_and_overlap_free() {
+    // A bidisperse load in a cylinder (axis z), grown at an absolute rate until jammed.
+    let out = run_toml(
+        r#"seed = 4
+[container]
+type = "cylinder"
+base_center = [1.0, -2.0, 0.5]
+radius = 4.0
+height = 10.0
+[particles]
+components = [{ count = 150, diameter = 1.0 }, { count = 40, diameter = 2.0 }]
+packing_fraction = 0.25
+[[stage]]
+growth = "absolute"
+rate = 0.01
+until = { reduced_pressure = 1e10 }
+"#,
+    );
+    let stats = &out.packing.stats;
+    assert_eq!(stats.stop_reason, "jammed");
+    // Absolute growth adds the same length to every radius: the size ratio shrinks below 2.
+    let radii: Vec<f64> = out
+        .packing
+        .particles
+        .iter()
+        .map(|p| match p {
+            densepack::io::packing::ParticleRecord::Sphere { radius, .. } => *radius,
+        })
+        .collect();
+    let (small, big) = (radii[0], radii[150]);
+    let seed_scale = (0.25 * std::f64::consts::PI * 16.0 * 10.0
+        / (std::f64::consts::PI / 6.0 * (150.0 + 40.0 * 8.0)))
+        .cbrt();
+    let grown = small - 0.5 * seed_scale;
+    assert!(grown > 0.0);
+    assert!(
+        ((big - small) - 0.5 * seed_scale).abs() < 1e-9,
+        "big {big} small {small}"
+    );
+    assert!(
+        stats.packing_fraction > 0.5,
+        "φ = {}",
+        stats.packing_fraction
+    );
+    assert!(out.verification.min_wall_gap.unwrap() >= -1e-9 * big);
+    // Containment checked here again, independently of `verify`.
+    for p in &out.packing.particles {
+        let densepack::io::packing::ParticleRecord::Sphere { center, radius } = p;
+        let rho = (center[0] - 1.0).hypot(center[1] + 2.0);
+        assert!(
+            rho + radius <= 4.0 * (1.0 + 1e-12),
+            "pokes through the mantle"
+        );
+        assert!(center[2] - radius >= 0.5 - 1e-12 && center[2] + radius <= 10.5 + 1e-12);
+    }
+    assert_no_overlap(&out.packing);
+}
+
+#[test]
+fn polydisperse_size_ratio_8_jams_densely_without_overlap() {
+    // Four size classes (diameters 4, 2, 1, 0.5): the cell grid uses several levels and
+    // large particles keep thin neighbour shells.
+    let out = run_toml(
+        r#"seed = 6
+[container]
+type = "box"
+size = [12.0, 12.0, 12.0]
+periodic = [true, false, true]
+[particles]
+components = [{ count = 8, diameter = 4.0 }, { count = 40, diameter = 2.0 },
+              { count = 300, diameter = 1.0 }, { count = 2000, diameter = 0.5 }]
+packing_fraction = 0.3
+[[stage]]
+growth = "relative"
+rate = 0.1
+until = { reduced_pressure = 1e8 }
+"#,
+    );
+    let stats = &out.packing.stats;
+    assert_eq!(stats.stop_reason, "jammed");
+    // Polydisperse mixtures pack denser than equal spheres (φ_RCP ≈ 0.64).
+    assert!(
+        stats.packing_fraction > 0.68,
+        "φ = {}",
+        stats.packing_fraction
+    );
+    assert!(out.verification.min_wall_gap.unwrap() >= -1e-9);
+    assert_no_overlap(&out.packing);
+}

@@ -86,12 +86,7 @@ impl Boundary for PeriodicBox {
         // Positions are wrapped, so |dr| < L and one correction suffices; near pairs rarely
         // straddle a face, so these branches are well predicted.
         for k in 0..3 {
-            let l = self.len[k];
-            if dr[k] > 0.5 * l {
-                dr[k] -= l;
-            } else if dr[k] < -0.5 * l {
-                dr[k] += l;
-            }
+            dr[k] = nearest_image(dr[k], self.len[k]);
         }
     }
     #[inline]
@@ -111,6 +106,18 @@ impl Boundary for PeriodicBox {
     }
     fn sample_center<R: Rng>(&self, _r: f64, rng: &mut R) -> Option<Vec3> {
         Some(self.min + self.len.map(|l| l * rng.gen::<f64>()))
+    }
+}
+
+/// The image of a separation `d` (with `|d| < len`) nearest to zero.
+#[inline]
+fn nearest_image(d: f64, len: f64) -> f64 {
+    if d > 0.5 * len {
+        d - len
+    } else if d < -0.5 * len {
+        d + len
+    } else {
+        d
     }
 }
 
@@ -161,12 +168,7 @@ impl Boundary for WalledBox {
     fn minimum_image(&self, dr: &mut Vec3) {
         for k in 0..3 {
             if self.periodic[k] {
-                let l = self.max[k] - self.min[k];
-                if dr[k] > 0.5 * l {
-                    dr[k] -= l;
-                } else if dr[k] < -0.5 * l {
-                    dr[k] += l;
-                }
+                dr[k] = nearest_image(dr[k], self.max[k] - self.min[k]);
             }
         }
     }

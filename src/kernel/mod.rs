@@ -21,13 +21,15 @@
 //!
 //! # Neighbour lists
 //! Each particle `i` owns a neighbour-list sphere: centre `c_i` (its position when the list
-//! was built) and radius `R_i = (1 + skin)·r_i`, and stays inside it
+//! was built) and radius `R_i = r_i + skin·min(r_i, r̄)` (`r̄` the mean radius), and stays
+//! inside it
 //! (`|p_i(t) − c_i| + r_i(t) ≤ R_i`) until its update event. Two particles whose spheres do
 //! not overlap cannot touch, so predictions only look at the particles whose spheres overlap
 //! `i`'s (Donev, Torquato, Stillinger 2005). Near jamming a list holds ~12 partners where
 //! the 27 cells of the plain cell method hold ~36, and the cell grid is touched only at
-//! updates. The grid indexes the sphere centres; its cells are at least as wide as the
-//! largest sphere diameter.
+//! updates. The grid indexes the sphere centres on several levels (cells halving in width
+//! down to the smallest sphere), so wide size distributions stay cheap; the skin adapts at
+//! barriers ([`Edmd::skin`]).
 //!
 //! Invalidation never scans the queue: a particle's own events go with its local list, and
 //! events of others that name it are recognised as stale by the counter.
@@ -57,7 +59,7 @@ pub use stage::{Limits, Stage, StageReport, StopReason, Until};
 use crate::boundary::{Boundary, WallId};
 use crate::queue::EventQueue;
 use crate::shape::{exit_ball_time, Collidable, MassRule, Vec3};
-use crate::spatial::CellGrid;
+use crate::spatial::{CellGrid, MAX_LEVELS};
 use rand::Rng;
 use rand_distr::StandardNormal;
 
@@ -180,6 +182,10 @@ pub struct Edmd<S: Collidable, B: Boundary, Q: EventQueue> {
     updates_at_sort: u64,
     /// Current neighbour-list skin (relative to the radius).
     skin: f64,
+    /// Reused buffer for neighbour-list candidates.
+    scratch: Vec<u32>,
+    /// Mean bounding radius at the start of the current barrier interval.
+    mean_radius: f64,
 }
 
 impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
@@ -240,10 +246,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             counts: vec![0; n],
             local: vec![LocalList::default(); n],
             list_centre: particles.iter().map(|p| p.pos).collect(),
-            list_radius: particles
-                .iter()
-                .map(|p| (1.0 + config.neighbour_skin) * p.shape.bounding_radius(0.0))
-                .collect(),
+            list_radius: vec![0.0; n],
             neighbours: vec![Vec::new(); n],
             ids: (0..n as u32).collect(),
             queue: Q::with_capacity(n),
@@ -261,8 +264,15 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             counters: EventCounts::default(),
             updates_at_sort: 0,
             skin,
+            scratch: Vec::new(),
+            mean_radius: 0.0,
         };
         kernel.rescale_temperature();
+        kernel.update_mean_radius();
+        for i in 0..n {
+            let r = kernel.particles[i].shape.bounding_radius(0.0);
+            kernel.list_radius[i] = kernel.list_radius_for(r);
+        }
         kernel.rebuild_grid(kernel.needed_cell_width(0.0));
         kernel.build_all_neighbour_lists();
         kernel
@@ -299,6 +309,16 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// BENCHMARKS.md.
     pub fn skin(&self) -> f64 {
         self.skin
+    }
+
+    /// Radius of a neighbour-list sphere for a particle of bounding radius `r`:
+    /// `r + skin·min(r, r̄)` with `r̄` the mean bounding radius. Small particles get a skin
+    /// proportional to their size; large ones a shell no thicker than that of a typical
+    /// particle, so a big particle's list holds the small ones touching its surface, not a
+    /// thick layer of them (its list is re-predicted at every one of its collisions).
+    #[inline]
+    fn list_radius_for(&self, r: f64) -> f64 {
+        r + self.skin * r.min(self.mean_radius)
     }
 
     /// Adapts the skin to the list updates and collisions of the last interval.
@@ -362,7 +382,17 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             .list_radius
             .iter()
             .fold(0.0_f64, |m, &r| m.max(2.0 * r));
-        current.max((1.0 + self.skin) * self.max_diameter(t))
+        current.max(2.0 * self.list_radius_for(0.5 * self.max_diameter(t)))
+    }
+
+    fn update_mean_radius(&mut self) {
+        let n = self.particles.len().max(1) as f64;
+        let sum: f64 = self
+            .particles
+            .iter()
+            .map(|p| p.shape.bounding_radius(0.0))
+            .sum();
+        self.mean_radius = sum / n;
     }
 
     fn rescale_temperature(&mut self) {
@@ -383,12 +413,18 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     fn rebuild_grid(&mut self, width: f64) {
         let b = &self.boundary;
         let n = self.particles.len();
-        self.grid = CellGrid::new(b.min(), b.max(), b.periodic(), width, n);
-        let cells: Vec<u32> = self
-            .list_centre
+        // Levels halve down to the smallest neighbour-list sphere (one level when all are
+        // alike).
+        let smallest = self
+            .list_radius
             .iter()
-            .map(|c| self.grid.cell_at(c))
-            .collect();
+            .fold(f64::INFINITY, |m, &r| m.min(2.0 * r));
+        let mut widths = vec![width];
+        while widths.len() < MAX_LEVELS && widths[widths.len() - 1] * 0.5 >= smallest {
+            widths.push(widths[widths.len() - 1] * 0.5);
+        }
+        self.grid = CellGrid::with_levels(b.min(), b.max(), b.periodic(), &widths, n);
+        let cells: Vec<u32> = (0..n).map(|i| self.home_cell(i)).collect();
         let mut order: Vec<u32> = (0..n as u32).collect();
         order.sort_by_key(|&i| (cells[i as usize], i));
         let mut new_index = vec![0u32; n];
@@ -428,6 +464,25 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.updates_at_sort = self.counters.neighbour_list_updates;
     }
 
+    /// The grid cell for particle `i`'s neighbour-list sphere: at the finest level that holds
+    /// its diameter.
+    #[inline]
+    fn home_cell(&self, i: usize) -> u32 {
+        let level = self.grid.level_for(2.0 * self.list_radius[i]);
+        self.grid.cell_at(level, &self.list_centre[i])
+    }
+
+    /// Particles whose neighbour-list spheres may overlap `i`'s (a superset), into `out`.
+    fn list_candidates(&self, i: usize, out: &mut Vec<u32>) {
+        out.clear();
+        for level in 0..self.grid.levels() {
+            // Spheres registered at `level` have radii ≤ half its cell width.
+            let reach = self.list_radius[i] + 0.5 * self.grid.level_width(level);
+            self.grid
+                .for_each_within(level, &self.list_centre[i], reach, |j| out.push(j as u32));
+        }
+    }
+
     /// Whether the neighbour-list spheres of `i` and `j` overlap.
     #[inline]
     fn lists_overlap(&self, i: usize, j: usize) -> bool {
@@ -442,17 +497,18 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         for list in &mut self.neighbours {
             list.clear();
         }
+        let mut candidates = std::mem::take(&mut self.scratch);
         for i in 0..self.particles.len() {
-            let cells = self.grid.neighbourhood(self.grid.cell_of(i));
-            for &c in cells.as_slice() {
-                for j in self.grid.members(c) {
-                    if j > i && self.lists_overlap(i, j) {
-                        self.neighbours[i].push(j as u32);
-                        self.neighbours[j].push(i as u32);
-                    }
+            self.list_candidates(i, &mut candidates);
+            for &j in &candidates {
+                let j = j as usize;
+                if j > i && self.lists_overlap(i, j) {
+                    self.neighbours[i].push(j as u32);
+                    self.neighbours[j].push(i as u32);
                 }
             }
         }
+        self.scratch = candidates;
     }
 
     /// Moves particle `i`'s neighbour-list sphere to its position at the current time and
@@ -471,19 +527,20 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let mut new = old;
         new.clear();
         self.list_centre[i] = self.particles[i].pos;
-        self.list_radius[i] = (1.0 + self.skin) * self.particles[i].shape.bounding_radius(t);
+        self.list_radius[i] = self.list_radius_for(self.particles[i].shape.bounding_radius(t));
         self.grid.remove(i);
-        let cell = self.grid.cell_at(&self.list_centre[i]);
+        let cell = self.home_cell(i);
         self.grid.insert(i, cell);
-        let cells = self.grid.neighbourhood(cell);
-        for &c in cells.as_slice() {
-            for j in self.grid.members(c) {
-                if j != i && self.lists_overlap(i, j) {
-                    new.push(j as u32);
-                    self.neighbours[j].push(i as u32);
-                }
+        let mut candidates = std::mem::take(&mut self.scratch);
+        self.list_candidates(i, &mut candidates);
+        for &j in &candidates {
+            let j = j as usize;
+            if j != i && self.lists_overlap(i, j) {
+                new.push(j as u32);
+                self.neighbours[j].push(i as u32);
             }
         }
+        self.scratch = candidates;
         self.neighbours[i] = new;
     }
 
@@ -504,6 +561,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     fn begin_interval(&mut self, interval: f64) {
         self.interval = interval;
         self.barrier_time = interval;
+        self.update_mean_radius();
         let needed = self.needed_cell_width(interval);
         let n = self.particles.len();
         if self.grid.min_width() < needed {

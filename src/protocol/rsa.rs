@@ -60,7 +60,7 @@ pub fn rsa_spheres<B: Boundary, R: Rng>(
         loop {
             let candidate = boundary.sample_center(r + 0.5 * gap, rng);
             let ok = candidate.is_some_and(|c| {
-                let cells = grid.neighbourhood(grid.cell_at(&c));
+                let cells = grid.neighbourhood(grid.cell_at(0, &c));
                 !cells.as_slice().iter().any(|&cell| {
                     grid.members(cell).any(|j| {
                         let mut dr = c - centres[j];
@@ -73,7 +73,7 @@ pub fn rsa_spheres<B: Boundary, R: Rng>(
             if ok {
                 let c = candidate.expect("checked");
                 centres[i] = c;
-                grid.insert(i, grid.cell_at(&c));
+                grid.insert(i, grid.cell_at(0, &c));
                 volume += 4.0 / 3.0 * std::f64::consts::PI * r.powi(3);
                 break;
             }

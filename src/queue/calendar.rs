@@ -58,6 +58,11 @@ use std::cmp::Ordering;
 /// A front larger than this triggers a rebuild (see the module documentation).
 const FRONT_LIMIT: usize = 64;
 
+/// Mean entries per bucket the calendar is laid out for: a few entries keep the front heap
+/// tiny while a quarter as many bucket headers and allocations as keys keep memory low
+/// (measured in BENCHMARKS.md).
+const ENTRIES_PER_BUCKET: usize = 4;
+
 /// Upper bound on the number of buckets (and with it on the memory a `reset` can allocate).
 const MAX_BUCKETS: usize = 1 << 24;
 
@@ -303,7 +308,7 @@ impl CalendarQueue {
                 .map(|&k| self.time[k as usize])
                 .filter(|t| t.is_finite()),
         );
-        let nb = keys.len().next_power_of_two();
+        let nb = keys.len().div_ceil(ENTRIES_PER_BUCKET).next_power_of_two();
         if times.len() < 2 {
             self.heap_mode();
         } else {
@@ -418,7 +423,11 @@ impl EventQueue for CalendarQueue {
         }
         self.len = 0;
         self.ops = 0;
-        let nb = expected_len.max(1).next_power_of_two().min(MAX_BUCKETS);
+        let nb = expected_len
+            .div_ceil(ENTRIES_PER_BUCKET)
+            .max(1)
+            .next_power_of_two()
+            .min(MAX_BUCKETS);
         self.lay_out(start, (end - start) / nb as f64, nb);
     }
 

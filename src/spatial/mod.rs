@@ -1,27 +1,40 @@
 //! The cell grid (DynamO's *globals*): which bodies are near each other.
 //!
-//! The container's bounding box is divided into `nx × ny × nz` cells whose width is at least
-//! the largest interaction diameter `w` of the registered bodies. Two bodies closer than `w`
-//! then sit in neighbouring cells (Alder and Wainwright's cell method, paper 001 §5.4 step 5),
-//! so a query looks at the members of the 27 cells around a point. The kernel registers the
-//! centres of the particles' neighbour-list spheres here and queries the grid only when a
-//! particle's neighbour list is rebuilt (see [`crate::kernel`]).
+//! The container's bounding box is divided into cells at one or more *levels*; level `l` has
+//! cells at least `w_l` wide, with `w_0 > w_1 > …` (each level half as wide as the one
+//! above). A body of interaction radius `R` is registered at the finest level whose cells are
+//! at least `2R` wide. Two bodies of the same level that are closer than `w_l` then sit in
+//! neighbouring cells (Alder and Wainwright's cell method, paper 001 §5.4 step 5), so a
+//! same-level query looks at the 27 cells around a point; a query reaching further (a large
+//! body looking for small ones at a fine level) looks at a `(2k+1)³` block with
+//! `k = ⌈reach / w_l⌉`.
+//!
+//! One level is all a monodisperse scene uses. With a wide size distribution (concrete:
+//! diameters 0.5–16 mm, ratio 32) a single level would need cells as wide as the largest
+//! body, holding thousands of small ones; the levels keep every cell's population O(1).
 //!
 //! Members are kept in intrusive doubly linked lists (`head` per cell, `next`/`prev` per
-//! particle): insert, remove and move are `O(1)` and need no allocation.
-//!
-//! The kernel rebuilds the grid at a barrier when the particles have outgrown its cells.
+//! body): insert, remove and move are `O(1)` and need no allocation.
 
 use crate::shape::Vec3;
 
 const NONE: u32 = u32::MAX;
 
-/// A uniform cell grid over an axis-aligned box, periodic or bounded per axis.
+/// The cells of one level.
+#[derive(Clone, Debug)]
+struct Level {
+    /// Actual cell widths per axis (≥ the requested width).
+    width: Vec3,
+    dims: [u32; 3],
+    /// Index of this level's first cell in the grid's cell numbering.
+    first: u32,
+}
+
+/// A multi-level uniform cell grid over an axis-aligned box, periodic or bounded per axis.
 #[derive(Clone, Debug)]
 pub struct CellGrid {
     origin: Vec3,
-    width: Vec3,
-    dims: [u32; 3],
+    levels: Vec<Level>,
     periodic: [bool; 3],
     head: Vec<u32>,
     next: Vec<u32>,
@@ -41,94 +54,118 @@ impl CellSet {
     pub fn as_slice(&self) -> &[u32] {
         &self.cells[..self.len]
     }
-
-    #[inline]
-    fn push_unique(&mut self, c: u32, dedup: bool) {
-        if dedup && self.cells[..self.len].contains(&c) {
-            return;
-        }
-        self.cells[self.len] = c;
-        self.len += 1;
-    }
 }
 
+/// Most levels a grid builds (a size ratio of 2⁷ = 128 between the coarsest and finest).
+pub const MAX_LEVELS: usize = 8;
+
 impl CellGrid {
-    /// A grid over `[min, max]` with cells at least `min_width` wide, for `n` particles.
-    ///
-    /// The cell count is capped at `4n + 64` (and each axis at 2^20) so that tiny particles
-    /// in a big box cannot exhaust memory; the cells are then wider than needed, which is
-    /// correct, only slower.
+    /// A single-level grid over `[min, max]` with cells at least `min_width` wide, for `n`
+    /// bodies.
     pub fn new(min: Vec3, max: Vec3, periodic: [bool; 3], min_width: f64, n: usize) -> Self {
+        Self::with_levels(min, max, periodic, &[min_width], n)
+    }
+
+    /// A grid with one level per requested width (decreasing), for `n` bodies.
+    ///
+    /// The cell count of a level is capped at `4n + 64` (and each axis at 2^20) so that tiny
+    /// bodies in a big box cannot exhaust memory; its cells are then wider than asked, which
+    /// is correct, only slower.
+    pub fn with_levels(
+        min: Vec3,
+        max: Vec3,
+        periodic: [bool; 3],
+        widths: &[f64],
+        n: usize,
+    ) -> Self {
+        assert!(!widths.is_empty() && widths.len() <= MAX_LEVELS);
         let len = max - min;
         let cap = (4 * n + 64) as f64;
-        let mut w = min_width.max(f64::MIN_POSITIVE);
-        let mut dims = [1u32; 3];
-        loop {
-            for k in 0..3 {
-                dims[k] = ((len[k] / w).floor() as u64).clamp(1, 1 << 20) as u32;
+        let mut levels = Vec::with_capacity(widths.len());
+        let mut first = 0u32;
+        for &requested in widths {
+            let mut w = requested.max(f64::MIN_POSITIVE);
+            let mut dims = [1u32; 3];
+            loop {
+                for k in 0..3 {
+                    dims[k] = ((len[k] / w).floor() as u64).clamp(1, 1 << 20) as u32;
+                }
+                if (dims[0] as f64) * (dims[1] as f64) * (dims[2] as f64) <= cap {
+                    break;
+                }
+                w *= 1.25;
             }
-            if (dims[0] as f64) * (dims[1] as f64) * (dims[2] as f64) <= cap {
-                break;
-            }
-            w *= 1.25;
+            let width = Vec3::new(
+                len.x / dims[0] as f64,
+                len.y / dims[1] as f64,
+                len.z / dims[2] as f64,
+            );
+            levels.push(Level { width, dims, first });
+            first += dims[0] * dims[1] * dims[2];
         }
-        let width = Vec3::new(
-            len.x / dims[0] as f64,
-            len.y / dims[1] as f64,
-            len.z / dims[2] as f64,
-        );
-        let ncells = (dims[0] * dims[1] * dims[2]) as usize;
         Self {
             origin: min,
-            width,
-            dims,
+            levels,
             periodic,
-            head: vec![NONE; ncells],
+            head: vec![NONE; first as usize],
             next: vec![NONE; n],
             prev: vec![NONE; n],
             cell_of: vec![NONE; n],
         }
     }
 
-    /// Smallest cell width over the three axes.
+    /// Number of levels.
+    pub fn levels(&self) -> usize {
+        self.levels.len()
+    }
+
+    /// Smallest cell width of `level` over the three axes.
+    pub fn level_width(&self, level: usize) -> f64 {
+        self.levels[level].width.min()
+    }
+
+    /// Smallest cell width of the coarsest level.
     pub fn min_width(&self) -> f64 {
-        self.width.min()
+        self.level_width(0)
     }
 
-    /// Number of cells along each axis.
-    pub fn dims(&self) -> [u32; 3] {
-        self.dims
+    /// The finest level whose cells are at least `diameter` wide (level 0 if none is).
+    pub fn level_for(&self, diameter: f64) -> usize {
+        (0..self.levels.len())
+            .rev()
+            .find(|&l| self.level_width(l) >= diameter)
+            .unwrap_or(0)
     }
 
-    /// The cell containing point `p` (clamped to the grid).
-    pub fn cell_at(&self, p: &Vec3) -> u32 {
-        let mut c = [0u32; 3];
-        for k in 0..3 {
-            let x = ((p[k] - self.origin[k]) / self.width[k]).floor();
-            c[k] = x.clamp(0.0, (self.dims[k] - 1) as f64) as u32;
-        }
-        self.index(c)
+    /// The cell of `level` containing point `p` (clamped to the grid).
+    pub fn cell_at(&self, level: usize, p: &Vec3) -> u32 {
+        let lv = &self.levels[level];
+        let c = self.coords_at(lv, p);
+        lv.first + index(lv, c)
     }
 
-    #[inline]
-    fn index(&self, c: [u32; 3]) -> u32 {
-        c[0] + self.dims[0] * (c[1] + self.dims[1] * c[2])
+    fn coords_at(&self, lv: &Level, p: &Vec3) -> [u32; 3] {
+        std::array::from_fn(|k| {
+            let x = ((p[k] - self.origin[k]) / lv.width[k]).floor();
+            x.clamp(0.0, (lv.dims[k] - 1) as f64) as u32
+        })
     }
 
-    #[inline]
-    fn coords(&self, cell: u32) -> [u32; 3] {
-        let x = cell % self.dims[0];
-        let yz = cell / self.dims[0];
-        [x, yz % self.dims[1], yz / self.dims[1]]
+    fn level_of_cell(&self, cell: u32) -> &Level {
+        self.levels
+            .iter()
+            .rev()
+            .find(|lv| lv.first <= cell)
+            .expect("level 0 starts at cell 0")
     }
 
-    /// The cell particle `i` is registered in.
+    /// The cell body `i` is registered in.
     #[inline]
     pub fn cell_of(&self, i: usize) -> u32 {
         self.cell_of[i]
     }
 
-    /// Registers particle `i` in `cell`.
+    /// Registers body `i` in `cell`.
     #[inline]
     pub fn insert(&mut self, i: usize, cell: u32) {
         let h = self.head[cell as usize];
@@ -141,7 +178,7 @@ impl CellGrid {
         self.cell_of[i] = cell;
     }
 
-    /// Unregisters particle `i`.
+    /// Unregisters body `i`.
     #[inline]
     pub fn remove(&mut self, i: usize) {
         let (p, n) = (self.prev[i], self.next[i]);
@@ -156,7 +193,7 @@ impl CellGrid {
         self.cell_of[i] = NONE;
     }
 
-    /// The particles registered in `cell`.
+    /// The bodies registered in `cell`.
     #[inline]
     pub fn members(&self, cell: u32) -> Members<'_> {
         Members {
@@ -165,54 +202,98 @@ impl CellGrid {
         }
     }
 
-    /// Whether some periodic axis has fewer than 3 cells, so that neighbour offsets alias.
-    #[inline]
-    fn aliased(&self) -> bool {
-        (0..3).any(|k| self.periodic[k] && self.dims[k] < 3)
-    }
-
-    /// Neighbour cell along one axis (`None` past a bounded edge).
-    #[inline]
-    fn step(&self, c: u32, k: usize, d: i32) -> Option<u32> {
-        let n = self.dims[k] as i32;
-        let x = c as i32 + d;
-        if (0..n).contains(&x) {
-            Some(x as u32)
-        } else if self.periodic[k] {
-            Some(x.rem_euclid(n) as u32)
-        } else {
-            None
-        }
-    }
-
-    /// The cell itself and its up to 26 neighbours, each once.
+    /// The cell itself and its up to 26 neighbours of the same level, each once.
     pub fn neighbourhood(&self, cell: u32) -> CellSet {
-        let c = self.coords(cell);
-        // Neighbour coordinates per axis first (at most 3 each), then their products.
+        let lv = self.level_of_cell(cell);
+        let c = coords(lv, cell - lv.first);
         let mut axes = [[0u32; 3]; 3];
         let mut counts = [0usize; 3];
         for k in 0..3 {
             for d in -1..=1 {
-                if let Some(x) = self.step(c[k], k, d) {
-                    axes[k][counts[k]] = x;
-                    counts[k] += 1;
+                if let Some(x) = step(lv, self.periodic[k], c[k], k, d) {
+                    if !axes[k][..counts[k]].contains(&x) {
+                        axes[k][counts[k]] = x;
+                        counts[k] += 1;
+                    }
                 }
             }
         }
-        let dedup = self.aliased();
         let mut set = CellSet {
             cells: [0; 27],
             len: 0,
         };
         for &z in &axes[2][..counts[2]] {
             for &y in &axes[1][..counts[1]] {
-                let row = self.dims[0] * (y + self.dims[1] * z);
+                let row = lv.first + lv.dims[0] * (y + lv.dims[1] * z);
                 for &x in &axes[0][..counts[0]] {
-                    set.push_unique(row + x, dedup);
+                    set.cells[set.len] = row + x;
+                    set.len += 1;
                 }
             }
         }
         set
+    }
+
+    /// Calls `f` with every body registered at `level` in a cell within `reach` of `p`
+    /// along each axis (a superset of the bodies whose registered point is within `reach`).
+    pub fn for_each_within(&self, level: usize, p: &Vec3, reach: f64, mut f: impl FnMut(usize)) {
+        let lv = &self.levels[level];
+        let c = self.coords_at(lv, p);
+        // Per axis: the cell range lo..=hi, wrapped on periodic axes; the whole axis when the
+        // range would wrap onto itself.
+        let range = |k: usize| -> (i64, i64, i64) {
+            let n = lv.dims[k] as i64;
+            let reach_cells = (reach / lv.width[k]).ceil().max(1.0) as i64;
+            let (lo, hi) = (c[k] as i64 - reach_cells, c[k] as i64 + reach_cells);
+            if self.periodic[k] {
+                if 2 * reach_cells + 1 >= n {
+                    (0, n - 1, n)
+                } else {
+                    (lo, hi, n)
+                }
+            } else {
+                (lo.max(0), hi.min(n - 1), n)
+            }
+        };
+        let (rx, ry, rz) = (range(0), range(1), range(2));
+        for z in rz.0..=rz.1 {
+            let z = z.rem_euclid(rz.2) as u32;
+            for y in ry.0..=ry.1 {
+                let y = y.rem_euclid(ry.2) as u32;
+                let row = lv.first + lv.dims[0] * (y + lv.dims[1] * z);
+                for x in rx.0..=rx.1 {
+                    for i in self.members(row + x.rem_euclid(rx.2) as u32) {
+                        f(i);
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[inline]
+fn index(lv: &Level, c: [u32; 3]) -> u32 {
+    c[0] + lv.dims[0] * (c[1] + lv.dims[1] * c[2])
+}
+
+#[inline]
+fn coords(lv: &Level, local: u32) -> [u32; 3] {
+    let x = local % lv.dims[0];
+    let yz = local / lv.dims[0];
+    [x, yz % lv.dims[1], yz / lv.dims[1]]
+}
+
+/// Neighbour coordinate along one axis (`None` past a bounded edge).
+#[inline]
+fn step(lv: &Level, periodic: bool, c: u32, k: usize, d: i32) -> Option<u32> {
+    let n = lv.dims[k] as i32;
+    let x = c as i32 + d;
+    if (0..n).contains(&x) {
+        Some(x as u32)
+    } else if periodic {
+        Some(x.rem_euclid(n) as u32)
+    } else {
+        None
     }
 }
 
@@ -248,7 +329,6 @@ mod tests {
             1.0,
             1000,
         );
-        assert_eq!(g.dims(), [10, 10, 10]);
         assert_eq!(g.neighbourhood(0).as_slice().len(), 27);
         let walled = CellGrid::new(
             Vec3::zeros(),
@@ -277,5 +357,23 @@ mod tests {
         let mut m: Vec<_> = g.members(5).collect();
         m.sort();
         assert_eq!(m, vec![0, 1]);
+    }
+
+    #[test]
+    fn levels_halve_and_queries_reach_across_periodic_faces() {
+        let b = Vec3::new(16.0, 16.0, 16.0);
+        let mut g = CellGrid::with_levels(Vec3::zeros(), b, [true; 3], &[4.0, 2.0, 1.0], 5000);
+        assert_eq!(g.levels(), 3);
+        assert_eq!(g.level_for(1.5), 1);
+        assert_eq!(g.level_for(0.5), 2);
+        // A fine-level body just across the periodic face is found from the far side.
+        let p = Vec3::new(0.2, 8.0, 8.0);
+        g.insert(0, g.cell_at(2, &p));
+        let mut found = Vec::new();
+        g.for_each_within(2, &Vec3::new(15.9, 8.0, 8.0), 2.5, |i| found.push(i));
+        assert_eq!(found, vec![0]);
+        found.clear();
+        g.for_each_within(2, &Vec3::new(8.0, 8.0, 8.0), 2.5, |i| found.push(i));
+        assert!(found.is_empty());
     }
 }
