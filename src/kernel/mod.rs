@@ -302,11 +302,12 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// Current neighbour-list skin, relative to the radius.
     ///
     /// A thick skin means long lists (more predictions per collision), a thin one frequent
-    /// list updates. After every barrier interval the skin is multiplied by 1.2 when there
-    /// were more than 0.3 updates per collision and divided by 1.2 below 0.1, within
-    /// `[0.01, 1]`: a fluid settles near 0.3–0.4, a packing near jamming (particles rattle
-    /// in tiny cages) shrinks its lists to the touching neighbours. Measured in
-    /// BENCHMARKS.md.
+    /// list updates, and an update costs about three collisions (it queries the cell grid
+    /// and edits the lists of old and new neighbours). After every barrier interval the skin
+    /// is multiplied by 1.2 when there were more than 0.15 updates per collision and divided
+    /// by 1.2 below 0.05, within `[0.01, 1]`: a fluid settles at a thick skin, a packing
+    /// near jamming (particles rattle in tiny cages) shrinks its lists to the touching
+    /// neighbours. Measured in BENCHMARKS.md.
     pub fn skin(&self) -> f64 {
         self.skin
     }
@@ -327,9 +328,9 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             return; // too few events to judge
         }
         let ratio = updates as f64 / collisions.max(1) as f64;
-        if ratio > 0.3 {
+        if ratio > 0.15 {
             self.skin = (self.skin * 1.2).min(1.0);
-        } else if ratio < 0.1 {
+        } else if ratio < 0.05 {
             self.skin = (self.skin / 1.2).max(0.01);
         }
     }
