@@ -432,26 +432,15 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         for (new, &old) in order.iter().enumerate() {
             new_index[old as usize] = new as u32;
         }
-        let permute = |v: &mut Vec<_>| {
-            let moved: Vec<_> = order
-                .iter()
-                .map(|&o| std::mem::take(&mut v[o as usize]))
-                .collect();
-            *v = moved;
-        };
-        fn permute_copy<T: Copy>(v: &mut Vec<T>, order: &[u32]) {
-            *v = order.iter().map(|&o| v[o as usize]).collect();
-        }
-        permute_copy(&mut self.counts, &order);
-        permute_copy(&mut self.list_centre, &order);
-        permute_copy(&mut self.list_radius, &order);
-        permute_copy(&mut self.ids, &order);
-        self.particles = order
-            .iter()
-            .map(|&o| self.particles[o as usize].clone())
-            .collect();
+        let mut visited = vec![false; n];
+        permute_in_place(&mut self.counts, &order, &mut visited);
+        permute_in_place(&mut self.list_centre, &order, &mut visited);
+        permute_in_place(&mut self.list_radius, &order, &mut visited);
+        permute_in_place(&mut self.ids, &order, &mut visited);
+        permute_in_place(&mut self.particles, &order, &mut visited);
+        permute_in_place(&mut self.local, &order, &mut visited);
         let mut neighbours = std::mem::take(&mut self.neighbours);
-        permute(&mut neighbours);
+        permute_in_place(&mut neighbours, &order, &mut visited);
         for list in &mut neighbours {
             for j in list.iter_mut() {
                 *j = new_index[*j as usize];
@@ -765,6 +754,28 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     }
 }
 
+/// Reorders `v` so that `v_new[i] = v_old[order[i]]`, in place by following the cycles of
+/// the permutation (no second copy of `v`: the kernel's arrays are its bulk of memory).
+/// `visited` is scratch space of `v.len()` entries.
+fn permute_in_place<T>(v: &mut [T], order: &[u32], visited: &mut [bool]) {
+    visited.fill(false);
+    for start in 0..v.len() {
+        if visited[start] {
+            continue;
+        }
+        let mut j = start;
+        loop {
+            visited[j] = true;
+            let k = order[j] as usize;
+            if k == start {
+                break;
+            }
+            v.swap(j, k);
+            j = k;
+        }
+    }
+}
+
 #[inline]
 fn mass_of<S: Collidable>(rule: MassRule, shape: &S, t: f64, reference_volume: f64) -> f64 {
     match rule {
@@ -813,5 +824,19 @@ impl EventBudget {
             }
         }
         true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::permute_in_place;
+
+    #[test]
+    fn in_place_permutation_gathers() {
+        let order = [3u32, 0, 4, 1, 2, 5];
+        let mut v = vec!['a', 'b', 'c', 'd', 'e', 'f'];
+        let expected: Vec<char> = order.iter().map(|&o| v[o as usize]).collect();
+        permute_in_place(&mut v, &order, &mut [false; 6]);
+        assert_eq!(v, expected);
     }
 }
