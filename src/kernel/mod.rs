@@ -130,6 +130,11 @@ pub struct EventCounts {
     pub grid_rebuilds: u64,
 }
 
+/// Largest neighbour-list skin the kernel adapts to. Thicker skins lengthen the lists (their
+/// memory grows with the cube of `1 + skin`) for little gain: in the φ = 0.5 fluid a fixed
+/// skin of 0.4 was as fast as any (BENCHMARKS.md, tuning).
+const MAX_SKIN: f64 = 0.5;
+
 /// Which partners a prediction pass considers.
 #[derive(Clone, Copy)]
 enum Partners {
@@ -305,7 +310,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// list updates, and an update costs about three collisions (it queries the cell grid
     /// and edits the lists of old and new neighbours). After every barrier interval the skin
     /// is multiplied by 1.2 when there were more than 0.15 updates per collision and divided
-    /// by 1.2 below 0.05, within `[0.01, 1]`: a fluid settles at a thick skin, a packing
+    /// by 1.2 below 0.05, within `[0.01, MAX_SKIN]`: a fluid settles at a thick skin, a packing
     /// near jamming (particles rattle in tiny cages) shrinks its lists to the touching
     /// neighbours. Measured in BENCHMARKS.md.
     pub fn skin(&self) -> f64 {
@@ -329,7 +334,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         }
         let ratio = updates as f64 / collisions.max(1) as f64;
         if ratio > 0.15 {
-            self.skin = (self.skin * 1.2).min(1.0);
+            self.skin = (self.skin * 1.2).min(MAX_SKIN);
         } else if ratio < 0.05 {
             self.skin = (self.skin / 1.2).max(0.01);
         }
