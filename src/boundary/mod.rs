@@ -109,6 +109,38 @@ impl Boundary for PeriodicBox {
     }
 }
 
+/// The earliest wall contact offered within `[0, max_tau]`.
+struct FirstContact {
+    max_tau: f64,
+    best: Option<(f64, WallId)>,
+}
+
+impl FirstContact {
+    fn within(max_tau: f64) -> Self {
+        Self {
+            max_tau,
+            best: None,
+        }
+    }
+
+    /// A contact after `tau` (negative by rounding means now).
+    #[inline]
+    fn offer(&mut self, tau: f64, wall: WallId) {
+        let tau = tau.max(0.0);
+        if tau <= self.max_tau && self.best.is_none_or(|(t, _)| tau < t) {
+            self.best = Some((tau, wall));
+        }
+    }
+
+    /// A plane whose gap to the sphere closes at `rate` (touching and closing: now).
+    #[inline]
+    fn plane(&mut self, gap: f64, rate: f64, wall: WallId) {
+        if rate > 0.0 {
+            self.offer(gap / rate, wall);
+        }
+    }
+}
+
 /// The image of a separation `d` (with `|d| < len`) nearest to zero.
 #[inline]
 fn nearest_image(d: f64, len: f64) -> f64 {
@@ -189,24 +221,16 @@ impl Boundary for WalledBox {
         g: f64,
         max_tau: f64,
     ) -> Option<(f64, WallId)> {
-        let mut best: Option<(f64, WallId)> = None;
-        let mut consider = |gap: f64, rate: f64, wall: WallId| {
-            // Gap (p − min − r or max − p − r) closing at `rate`; touching and closing → now.
-            if rate > 0.0 {
-                let tau = (gap / rate).max(0.0);
-                if tau <= max_tau && best.is_none_or(|(t, _)| tau < t) {
-                    best = Some((tau, wall));
-                }
-            }
-        };
+        let mut first = FirstContact::within(max_tau);
         for k in 0..3 {
             if self.periodic[k] {
                 continue;
             }
-            consider(p[k] - self.min[k] - r, g - v[k], 2 * k as u8);
-            consider(self.max[k] - p[k] - r, v[k] + g, 2 * k as u8 + 1);
+            // Gap p − min − r closes at g − v; gap max − p − r at v + g.
+            first.plane(p[k] - self.min[k] - r, g - v[k], 2 * k as u8);
+            first.plane(self.max[k] - p[k] - r, v[k] + g, 2 * k as u8 + 1);
         }
-        best
+        first.best
     }
     #[inline]
     fn wall_normal(&self, wall: WallId, _: &Vec3) -> Vec3 {
@@ -278,21 +302,11 @@ impl Boundary for CylinderContainer {
         g: f64,
         max_tau: f64,
     ) -> Option<(f64, WallId)> {
-        let mut best: Option<(f64, WallId)> = None;
-        let mut consider = |tau: f64, wall: WallId| {
-            let tau = tau.max(0.0);
-            if tau <= max_tau && best.is_none_or(|(t, _)| tau < t) {
-                best = Some((tau, wall));
-            }
-        };
+        let mut first = FirstContact::within(max_tau);
         // Caps: planes z = base and z = base + height.
         let z = p.z - self.base_center.z;
-        if g - v.z > 0.0 {
-            consider((z - r) / (g - v.z), BOTTOM);
-        }
-        if v.z + g > 0.0 {
-            consider((self.height - z - r) / (v.z + g), TOP);
-        }
+        first.plane(z - r, g - v.z, BOTTOM);
+        first.plane(self.height - z - r, v.z + g, TOP);
         // Mantle: the axial offset q must stay within the free radius R − r(τ).
         let q = nalgebra::Vector2::new(p.x - self.base_center.x, p.y - self.base_center.y);
         let u = nalgebra::Vector2::new(v.x, v.y);
@@ -303,9 +317,9 @@ impl Boundary for CylinderContainer {
             self.radius - r,
             g,
         ) {
-            consider(tau, MANTLE);
+            first.offer(tau, MANTLE);
         }
-        best
+        first.best
     }
     fn wall_normal(&self, wall: WallId, p: &Vec3) -> Vec3 {
         match wall {
