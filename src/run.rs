@@ -147,18 +147,7 @@ fn run_with<B: Boundary + ContainerRecordOf, Q: EventQueue>(
     on_stage: &mut dyn FnMut(usize, &StageReport),
 ) -> Result<RunOutcome, RunError> {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(scene.seed);
-    let mut diameters = scene.diameters();
-    if let Some(phi) = scene.particles.packing_fraction {
-        let volume: f64 = diameters
-            .iter()
-            .map(|d| std::f64::consts::PI / 6.0 * d.powi(3))
-            .sum();
-        let scale = (phi * boundary.volume() / volume).cbrt();
-        for d in &mut diameters {
-            *d *= scale;
-        }
-    }
-    let radii: Vec<f64> = diameters.iter().map(|d| 0.5 * d).collect();
+    let radii: Vec<f64> = scene.seeding_diameters().iter().map(|d| 0.5 * d).collect();
     let centres = rsa_spheres(
         &boundary,
         &radii,

@@ -28,7 +28,7 @@
 //! Every table rejects unknown keys; [`Scene::validate`] names the offending field and its
 //! allowed range.
 
-use crate::kernel::{Limits, Stage, Until};
+use crate::kernel::{KernelConfig, Limits, Stage, Until};
 use crate::queue::QueueKind;
 use crate::shape::{Growth, MassRule};
 use serde::Deserialize;
@@ -65,15 +65,15 @@ pub struct Scene {
 }
 
 fn default_temperature() -> f64 {
-    1.0
+    KernelConfig::default().temperature
 }
 
 fn default_events_per_interval() -> f64 {
-    4.0
+    KernelConfig::default().events_per_particle_per_interval
 }
 
 fn default_neighbour_skin() -> f64 {
-    0.1
+    KernelConfig::default().neighbour_skin
 }
 
 /// The container of a scene.
@@ -196,6 +196,14 @@ pub enum SceneError {
     },
 }
 
+/// Total volume of spheres of the given diameters.
+fn sphere_volume(diameters: &[f64]) -> f64 {
+    diameters
+        .iter()
+        .map(|d| std::f64::consts::PI / 6.0 * d.powi(3))
+        .sum()
+}
+
 fn invalid(field: impl Into<String>, message: impl Into<String>) -> SceneError {
     SceneError::Invalid {
         field: field.into(),
@@ -234,8 +242,21 @@ impl Scene {
         Ok(scene)
     }
 
+    /// The diameters the spheres are seeded with: as written, or all scaled by one factor so
+    /// that they fill `particles.packing_fraction` of the container.
+    pub fn seeding_diameters(&self) -> Vec<f64> {
+        let mut diameters = self.diameters();
+        if let Some(phi) = self.particles.packing_fraction {
+            let scale = (phi * self.container_volume() / sphere_volume(&diameters)).cbrt();
+            for d in &mut diameters {
+                *d *= scale;
+            }
+        }
+        diameters
+    }
+
     /// The diameters of all spheres as written in the scene (before seeding scale).
-    pub fn diameters(&self) -> Vec<f64> {
+    fn diameters(&self) -> Vec<f64> {
         let p = &self.particles;
         match &p.components {
             Some(cs) => cs
@@ -333,26 +354,24 @@ impl Scene {
         if p.rsa_max_failures == 0 {
             return Err(invalid("particles.rsa_max_failures", "= 0 must be ≥ 1"));
         }
-        let diameters = self.diameters();
-        let volume: f64 = diameters
-            .iter()
-            .map(|d| std::f64::consts::PI / 6.0 * d.powi(3))
-            .sum();
         let container = self.container_volume();
-        let mut scale = 1.0;
         if let Some(phi) = p.packing_fraction {
             fraction("particles.packing_fraction", phi)?;
-            scale = (phi * container / volume).cbrt();
-        } else if volume / container >= 1.0 {
-            return Err(invalid(
-                "particles",
-                format!(
-                    "the spheres fill {:.3} of the container; the packing fraction must be < 1",
-                    volume / container
-                ),
-            ));
+        } else {
+            let filled = sphere_volume(&self.diameters()) / container;
+            if filled >= 1.0 {
+                return Err(invalid(
+                    "particles",
+                    format!(
+                        "the spheres fill {filled:.3} of the container; the packing fraction \
+                         must be < 1"
+                    ),
+                ));
+            }
         }
-        let d_max = diameters.iter().copied().fold(0.0, f64::max) * scale;
+        let diameters = self.seeding_diameters();
+        let seeded_phi = sphere_volume(&diameters) / container;
+        let d_max = diameters.iter().copied().fold(0.0, f64::max);
         if d_max >= smallest_extent {
             return Err(invalid(
                 "particles",
@@ -430,7 +449,7 @@ impl Scene {
         // Growth can at most reach the Kepler fraction for equal spheres; bound the final
         // diameter by it (polydisperse scenes by the same scale, a conservative estimate).
         if periodic_extent.is_finite() {
-            let mut final_phi = p.packing_fraction.unwrap_or(volume / container);
+            let mut final_phi = seeded_phi;
             if grows {
                 final_phi = self
                     .stages
@@ -445,7 +464,7 @@ impl Scene {
                     final_phi = final_phi.max(KEPLER_FRACTION);
                 }
             }
-            let d_final = d_max * (final_phi / (volume * scale.powi(3) / container)).cbrt();
+            let d_final = d_max * (final_phi / seeded_phi).cbrt();
             if 2.0 * d_final >= periodic_extent {
                 return Err(invalid(
                     "container.size",

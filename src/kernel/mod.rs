@@ -130,6 +130,22 @@ pub struct EventCounts {
     pub grid_rebuilds: u64,
 }
 
+impl EventCounts {
+    /// The counts accumulated since `before` was taken.
+    pub fn since(&self, before: &Self) -> Self {
+        Self {
+            events: self.events - before.events,
+            collisions: self.collisions - before.collisions,
+            wall_collisions: self.wall_collisions - before.wall_collisions,
+            neighbour_list_updates: self.neighbour_list_updates - before.neighbour_list_updates,
+            stale: self.stale - before.stale,
+            repredictions: self.repredictions - before.repredictions,
+            barriers: self.barriers - before.barriers,
+            grid_rebuilds: self.grid_rebuilds - before.grid_rebuilds,
+        }
+    }
+}
+
 /// Largest neighbour-list skin the kernel adapts to. Thicker skins lengthen the lists (their
 /// memory grows with the cube of `1 + skin`) for little gain: in the φ = 0.5 fluid a fixed
 /// skin of 0.4 was as fast as any (BENCHMARKS.md, tuning).
@@ -364,9 +380,14 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
 
     /// Twice the kinetic energy, `Σ m v²`.
     pub fn kinetic_twice(&self) -> f64 {
+        self.kinetic_twice_at(self.time)
+    }
+
+    /// `Σ m v²` with masses evaluated at kernel time `t` (they change as particles grow).
+    fn kinetic_twice_at(&self, t: f64) -> f64 {
         self.particles
             .iter()
-            .map(|p| self.mass(p, self.time) * p.vel.norm_squared())
+            .map(|p| self.mass(p, t) * p.vel.norm_squared())
             .sum()
     }
 
@@ -591,8 +612,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         {
             for j in self.neighbours[i].iter().map(|&j| j as usize) {
                 let skip = match partners {
-                    Partners::All => j == i,
-                    Partners::AllBut(k) => j == i || j == k,
+                    Partners::All => false,
+                    Partners::AllBut(k) => j == k,
                     Partners::Above => j <= i,
                 };
                 if skip {

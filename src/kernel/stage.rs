@@ -257,15 +257,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         } else {
             block_average(&blocks)
         };
-        let mut counts = self.counters;
-        counts.events -= counts_before.events;
-        counts.collisions -= counts_before.collisions;
-        counts.wall_collisions -= counts_before.wall_collisions;
-        counts.neighbour_list_updates -= counts_before.neighbour_list_updates;
-        counts.stale -= counts_before.stale;
-        counts.repredictions -= counts_before.repredictions;
-        counts.barriers -= counts_before.barriers;
-        counts.grid_rebuilds -= counts_before.grid_rebuilds;
+        let counts = self.counters.since(&counts_before);
         StageReport {
             stop_reason: report_reason.expect("a stage ends with a reason"),
             counts,
@@ -275,14 +267,6 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             reduced_pressure,
             reduced_pressure_stderr,
         }
-    }
-
-    /// `Σ m v²` with masses evaluated at kernel time `t`.
-    fn kinetic_twice_at(&self, t: f64) -> f64 {
-        self.particles
-            .iter()
-            .map(|p| self.mass(p, t) * p.vel.norm_squared())
-            .sum()
     }
 
     /// A first barrier interval: a fraction of the time a particle needs to cross the
