@@ -100,7 +100,7 @@ fn run(scene: &Scene, out: Option<PathBuf>, quiet: bool) -> ExitCode {
                      wall {:.2} s  ({:.3} M events/s)  stop {}  overlap check: ok (min gap {:.3e} of contact)",
                     outcome.packing.particles.len(),
                     s.packing_fraction,
-                    s.reduced_pressure,
+                    s.reduced_pressure.unwrap_or(f64::NAN),
                     s.events,
                     s.collisions,
                     s.wall_seconds,

@@ -5,8 +5,8 @@
 
 use crate::boundary::{Boundary, CylinderContainer, PeriodicBox, WalledBox};
 use crate::io::packing::{ContainerRecord, Packing, PackingStats, ParticleRecord, FORMAT};
-use crate::io::scene::{ContainerSpec, Scene};
-use crate::kernel::{Edmd, KernelConfig, StageReport};
+use crate::io::scene::{ContainerSpec, Method, Scene};
+use crate::kernel::{Edmd, KernelConfig, StageReport, StopReason};
 use crate::protocol::rsa::{rsa_spheres, RsaFailure};
 use crate::queue::{CalendarQueue, EventQueue, HeapQueue, QueueKind};
 use crate::shape::{Sphere, Vec3};
@@ -146,15 +146,50 @@ fn run_with<B: Boundary + ContainerRecordOf, Q: EventQueue>(
     boundary: B,
     on_stage: &mut dyn FnMut(usize, &StageReport),
 ) -> Result<RunOutcome, RunError> {
+    let started = std::time::Instant::now();
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(scene.seed);
-    let radii: Vec<f64> = scene.seeding_diameters().iter().map(|d| 0.5 * d).collect();
+    let true_diameters = scene.true_diameters(&mut rng);
+    let scale = scene.seed_scale(&true_diameters);
+    let radii: Vec<f64> = true_diameters.iter().map(|d| 0.5 * scale * d).collect();
+    let rsa_gap = match scene.method {
+        Method::Rsa => scene.particles.gap.unwrap_or(0.0),
+        Method::Edmd => 0.0,
+    };
     let centres = rsa_spheres(
         &boundary,
         &radii,
-        0.0,
+        rsa_gap,
         scene.particles.rsa_max_failures,
         &mut rng,
     )?;
+    if scene.method == Method::Rsa {
+        let placed = Placed {
+            centres,
+            radii,
+            min_gap: rsa_gap,
+        };
+        let stats = RunStats {
+            reduced_pressure: None,
+            events: 0,
+            collisions: 0,
+            wall_seconds: started.elapsed().as_secs_f64(),
+            stop_reason: "rsa_complete",
+            extra: serde_json::Map::new(),
+        };
+        return finish(
+            scene,
+            boundary.record(),
+            &boundary,
+            placed,
+            stats,
+            Vec::new(),
+        );
+    }
+    let full_size_fraction = true_diameters
+        .iter()
+        .map(|d| std::f64::consts::PI / 6.0 * d * d * d)
+        .sum::<f64>()
+        / boundary.volume();
     let shapes = radii.iter().map(|&r| Sphere::new(r)).collect();
     let config = KernelConfig {
         mass: scene.mass,
@@ -164,12 +199,25 @@ fn run_with<B: Boundary + ContainerRecordOf, Q: EventQueue>(
     };
     let mut kernel: Edmd<Sphere, B, Q> = Edmd::new(centres, shapes, boundary, config, &mut rng);
     let mut reports: Vec<StageReport> = Vec::new();
+    // Radii when a gap stage starts: the sizes written for a packing with a gap.
+    let mut true_radii: Option<Vec<f64>> = None;
     for (k, spec) in scene.stages.iter().enumerate() {
-        let report = kernel.run_stage(&spec.to_stage());
+        if spec.opens_gap() {
+            true_radii = Some(radii_by_id(&kernel));
+        }
+        let report = kernel.run_stage(&spec.to_stage(full_size_fraction));
         on_stage(k, &report);
-        let failed = !report.stop_reason.is_success();
+        // A gap stage succeeds only when its time is up (every radius gained Δd/2); jamming
+        // first means the gap does not fit. Δd maximisation ends when the gap cannot grow:
+        // jammed, or time stopped advancing.
+        let reached = if spec.until.gap.is_some() {
+            report.stop_reason == StopReason::TimeReached
+        } else {
+            report.stop_reason.is_success()
+                || (spec.until.max_gap == Some(true) && report.stop_reason == StopReason::Stalled)
+        };
         reports.push(report);
-        if failed {
+        if !reached {
             let last = reports.last().expect("just pushed");
             return Err(RunError::StageFailed {
                 stage: k,
@@ -181,44 +229,29 @@ fn run_with<B: Boundary + ContainerRecordOf, Q: EventQueue>(
             });
         }
     }
-    let packing = packing_of(scene, &kernel, &reports);
-    drop(kernel); // the verification's own index should not add to the kernel's peak memory
-    let verification = verify(&packing);
-    if !verification.ok() {
-        return Err(RunError::Verification(verification.violations.join("; ")));
+    let mut centres = vec![Vec3::zeros(); kernel.particles().len()];
+    for (p, &id) in kernel.particles().iter().zip(kernel.original_indices()) {
+        centres[id as usize] = p.pos;
     }
-    Ok(RunOutcome {
-        packing,
-        stages: reports,
-        verification,
-    })
-}
-
-fn packing_of<B: Boundary + ContainerRecordOf, Q: EventQueue>(
-    scene: &Scene,
-    kernel: &Edmd<Sphere, B, Q>,
-    reports: &[StageReport],
-) -> Packing {
-    // Back to the order of the seeding, which the kernel permutes for cache locality.
-    let mut order: Vec<u32> = vec![0; kernel.particles().len()];
-    for (k, &id) in kernel.original_indices().iter().enumerate() {
-        order[id as usize] = k as u32;
-    }
-    let particles = order
-        .into_iter()
-        .map(|k| {
-            let p = &kernel.particles()[k as usize];
-            ParticleRecord::Sphere {
-                center: p.pos.into(),
-                radius: p.shape.radius(0.0),
-            }
-        })
-        .collect();
+    let grown = radii_by_id(&kernel);
+    let (radii, min_gap) = match true_radii {
+        // Every radius gained the same at the absolute rate; the guaranteed gap is twice
+        // the smallest gain (they differ only by rounding).
+        Some(true_radii) => {
+            let gain = grown
+                .iter()
+                .zip(&true_radii)
+                .map(|(g, t)| g - t)
+                .fold(f64::INFINITY, f64::min);
+            (true_radii, 2.0 * gain.max(0.0))
+        }
+        None => (grown, 0.0),
+    };
     let last = reports.last().expect("a scene has at least one stage");
     let events: u64 = reports.iter().map(|r| r.counts.events).sum();
     let collisions: u64 = reports.iter().map(|r| r.counts.collisions).sum();
     let wall_seconds: f64 = reports.iter().map(|r| r.wall_seconds).sum();
-    let n = kernel.particles().len().max(1) as f64;
+    let n = centres.len().max(1) as f64;
     let mut extra = serde_json::Map::new();
     extra.insert(
         "collisions_per_particle".into(),
@@ -233,21 +266,101 @@ fn packing_of<B: Boundary + ContainerRecordOf, Q: EventQueue>(
         serde_json::json!(last.reduced_pressure_stderr),
     );
     extra.insert("stages".into(), serde_json::json!(reports));
-    Packing {
+    let stats = RunStats {
+        reduced_pressure: Some(last.reduced_pressure),
+        events,
+        collisions,
+        wall_seconds,
+        stop_reason: last.stop_reason.as_str(),
+        extra,
+    };
+    let container = kernel.boundary().record();
+    let boundary = kernel.boundary().clone();
+    drop(kernel); // the verification's own index should not add to the kernel's peak memory
+    let placed = Placed {
+        centres,
+        radii,
+        min_gap,
+    };
+    finish(scene, container, &boundary, placed, stats, reports)
+}
+
+/// Radii of the kernel's spheres, in the order of the seeding.
+fn radii_by_id<B: Boundary, Q: EventQueue>(kernel: &Edmd<Sphere, B, Q>) -> Vec<f64> {
+    let mut radii = vec![0.0; kernel.particles().len()];
+    for (p, &id) in kernel.particles().iter().zip(kernel.original_indices()) {
+        radii[id as usize] = p.shape.radius(0.0);
+    }
+    radii
+}
+
+/// Final sphere centres and radii (seeding order) and the gap they guarantee.
+struct Placed {
+    centres: Vec<Vec3>,
+    radii: Vec<f64>,
+    min_gap: f64,
+}
+
+/// What a run reports besides the particles.
+struct RunStats {
+    reduced_pressure: Option<f64>,
+    events: u64,
+    collisions: u64,
+    wall_seconds: f64,
+    stop_reason: &'static str,
+    extra: serde_json::Map<String, serde_json::Value>,
+}
+
+/// Builds the packing, checks it independently and returns it.
+fn finish<B: Boundary>(
+    scene: &Scene,
+    container: ContainerRecord,
+    boundary: &B,
+    placed: Placed,
+    stats: RunStats,
+    stages: Vec<StageReport>,
+) -> Result<RunOutcome, RunError> {
+    let particles: Vec<ParticleRecord> = placed
+        .centres
+        .into_iter()
+        .zip(&placed.radii)
+        .map(|(mut c, &r)| {
+            boundary.wrap(&mut c);
+            ParticleRecord::Sphere {
+                center: c.into(),
+                radius: r,
+            }
+        })
+        .collect();
+    let volume: f64 = placed
+        .radii
+        .iter()
+        .map(|r| 4.0 / 3.0 * std::f64::consts::PI * r * r * r)
+        .sum();
+    let packing = Packing {
         format: FORMAT.into(),
         version: 1,
-        container: kernel.boundary().record(),
+        container,
         particles,
-        min_gap: 0.0,
+        min_gap: placed.min_gap,
         seed: scene.seed,
         stats: PackingStats {
-            packing_fraction: kernel.packing_fraction_at(0.0),
-            reduced_pressure: last.reduced_pressure,
-            events,
-            collisions,
-            wall_seconds,
-            stop_reason: last.stop_reason.as_str().into(),
-            extra,
+            packing_fraction: volume / boundary.volume(),
+            reduced_pressure: stats.reduced_pressure,
+            events: stats.events,
+            collisions: stats.collisions,
+            wall_seconds: stats.wall_seconds,
+            stop_reason: stats.stop_reason.into(),
+            extra: stats.extra,
         },
+    };
+    let verification = verify(&packing);
+    if !verification.ok() {
+        return Err(RunError::Verification(verification.violations.join("; ")));
     }
+    Ok(RunOutcome {
+        packing,
+        stages,
+        verification,
+    })
 }

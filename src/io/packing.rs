@@ -56,8 +56,9 @@ pub enum ParticleRecord {
 pub struct PackingStats {
     /// Packing fraction of the written particles.
     pub packing_fraction: f64,
-    /// Reduced pressure `PV/NkT` (time average for equilibrium runs, last interval for growth).
-    pub reduced_pressure: f64,
+    /// Reduced pressure `PV/NkT` (time average for equilibrium runs, last interval for
+    /// growth); `null` when no dynamics ran (random sequential addition).
+    pub reduced_pressure: Option<f64>,
     /// Processed events.
     pub events: u64,
     /// Pair collisions.

@@ -25,12 +25,37 @@
 //! until = { reduced_pressure = 1e12 }
 //! ```
 //!
+//! Concrete scenes draw the diameters from a grading curve (lengths in millimetres):
+//!
+//! ```toml
+//! [particles]
+//! grading = { kind = "din", name = "A16" }   # or fuller / table (see GradingSpec)
+//! mixture_fraction = 0.535                    # φ_M of the mix design
+//! d_min = 2.0                                 # cut-off: smaller grains belong to the mortar
+//! # seed_scale = 0.9                          # δ: seeded at δ·d (default 0.9 before a full_size stage)
+//!
+//! [[stage]]                                   # grow to the true sizes (paper 001, Eq. 30)
+//! growth = "relative"
+//! rate = 0.05
+//! until = { full_size = true }
+//!
+//! [[stage]]                                   # then open a gap Δd between all particles (Eq. 31)
+//! growth = "absolute"
+//! rate = 0.01
+//! until = { gap = 1.0 }                       # or { max_gap = true }: Δd maximisation
+//! ```
+//!
+//! `method = "rsa"` packs by random sequential addition alone (no stages), keeping
+//! `particles.gap` between spheres and half of it to walls.
+//!
 //! Every table rejects unknown keys; [`Scene::validate`] names the offending field and its
 //! allowed range.
 
 use crate::kernel::{KernelConfig, Limits, Stage, Until};
+use crate::protocol::take_phase::{GradingSpec, TakeError, TakeParams, TakePhase};
 use crate::queue::QueueKind;
 use crate::shape::{Growth, MassRule};
+use rand::Rng;
 use serde::Deserialize;
 
 /// A scene file.
@@ -39,6 +64,9 @@ use serde::Deserialize;
 pub struct Scene {
     /// Seed of the random generator (Xoshiro256++).
     pub seed: u64,
+    /// Packing algorithm (default EDMD).
+    #[serde(default)]
+    pub method: Method,
     /// Event queue.
     #[serde(default)]
     pub queue: QueueKind,
@@ -59,9 +87,20 @@ pub struct Scene {
     pub container: ContainerSpec,
     /// The particles.
     pub particles: ParticlesSpec,
-    /// The stages, run in order.
-    #[serde(rename = "stage")]
+    /// The stages, run in order (EDMD only).
+    #[serde(rename = "stage", default)]
     pub stages: Vec<StageSpec>,
+}
+
+/// The packing algorithm of a scene.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// Seed by RSA, then run the stages with event-driven molecular dynamics.
+    #[default]
+    Edmd,
+    /// Random sequential addition only: the seeding is the packing.
+    Rsa,
 }
 
 fn default_temperature() -> f64 {
@@ -112,7 +151,11 @@ pub struct Component {
     pub diameter: f64,
 }
 
-/// The particles of a scene.
+/// The particles of a scene: equal spheres (`count`, `diameter`), size classes
+/// (`components`) or a grading curve (`grading`, `mixture_fraction`, `d_min`).
+///
+/// The diameters given (or drawn) are the particles' *true* sizes. They are seeded smaller,
+/// by `seed_scale` or to `packing_fraction`, and a `full_size` stage grows them back.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct ParticlesSpec {
@@ -122,9 +165,22 @@ pub struct ParticlesSpec {
     pub diameter: Option<f64>,
     /// Size classes (instead of `count` and `diameter`).
     pub components: Option<Vec<Component>>,
+    /// Grading curve the diameters are drawn from (take phase, paper 001 §2–3; mm).
+    pub grading: Option<GradingSpec>,
+    /// Aggregate volume fraction `φ_M` of the mix design, in (0, 1) (with `grading`).
+    pub mixture_fraction: Option<f64>,
+    /// Effective fraction `φ_eff` in (0, 1) filled by the grains above `d_min` (with
+    /// `grading`, instead of `mixture_fraction`; paper 001 §6.2 prescribes it directly).
+    pub effective_fraction: Option<f64>,
+    /// Cut-off diameter `d_min` (mm): grains below it belong to the mortar (with `grading`).
+    pub d_min: Option<f64>,
     /// Packing fraction at seeding: all diameters are scaled by one factor to give it.
-    /// Without it the diameters are used as given.
     pub packing_fraction: Option<f64>,
+    /// Seeding scale `δ` in (0, 1]: spheres are seeded at `δ·d` (paper 001 §6.2). Default
+    /// 0.9 when the first stage grows to `full_size`, else 1 (the true sizes).
+    pub seed_scale: Option<f64>,
+    /// Minimum gap `Δd` kept by `method = "rsa"` between spheres (and `Δd/2` to walls).
+    pub gap: Option<f64>,
     /// Consecutive RSA rejections of one sphere before seeding fails (default 10⁶).
     #[serde(default = "default_rsa_failures")]
     pub rsa_max_failures: u64,
@@ -146,6 +202,14 @@ pub struct UntilSpec {
     pub time: Option<f64>,
     /// Pair collisions per particle to run.
     pub collisions_per_particle: Option<f64>,
+    /// Grow (relative growth) until the spheres reach their true sizes (Eq. 30).
+    pub full_size: Option<bool>,
+    /// Grow (absolute growth) from the true sizes until every radius has gained `gap/2`:
+    /// the packing is written at the true sizes with this minimum gap (Eq. 31).
+    pub gap: Option<f64>,
+    /// Grow (absolute growth) from the true sizes until jammed (reduced pressure, default
+    /// 10¹²): the largest minimum gap Δd_max.
+    pub max_gap: Option<bool>,
 }
 
 /// Growth protocol names.
@@ -242,22 +306,55 @@ impl Scene {
         Ok(scene)
     }
 
-    /// The diameters the spheres are seeded with: as written, or all scaled by one factor so
-    /// that they fill `particles.packing_fraction` of the container.
-    pub fn seeding_diameters(&self) -> Vec<f64> {
-        let mut diameters = self.diameters();
-        if let Some(phi) = self.particles.packing_fraction {
-            let scale = (phi * self.container_volume() / sphere_volume(&diameters)).cbrt();
-            for d in &mut diameters {
-                *d *= scale;
-            }
-        }
-        diameters
+    /// The take phase of a graded scene (`None` for explicit diameters).
+    pub fn take_phase(&self) -> Option<Result<TakePhase, SceneError>> {
+        let p = &self.particles;
+        let spec = p.grading.as_ref()?;
+        Some((|| {
+            let curve = spec
+                .build()
+                .map_err(|e| invalid("particles.grading", e.to_string()))?;
+            let d_min = p
+                .d_min
+                .ok_or_else(|| invalid("particles.d_min", "is required with `grading`"))?;
+            positive("particles.d_min", d_min)?;
+            let volume = self.container_volume();
+            let field = |e: &TakeError| match e {
+                TakeError::CutOff { .. } | TakeError::CutOffBelowTable { .. } => "particles.d_min",
+                TakeError::EffectiveFraction(_) => "particles.effective_fraction",
+                TakeError::MixtureFraction(_) => "particles.mixture_fraction",
+                _ => "particles.grading",
+            };
+            let take =
+                match (p.mixture_fraction, p.effective_fraction) {
+                    (Some(phi_m), None) => TakePhase::new(
+                        &curve,
+                        TakeParams {
+                            volume,
+                            phi_m,
+                            d_min,
+                        },
+                    ),
+                    (None, Some(phi_eff)) => {
+                        TakePhase::for_effective_fraction(&curve, volume, phi_eff, d_min)
+                    }
+                    _ => return Err(invalid(
+                        "particles.mixture_fraction",
+                        "give exactly one of `mixture_fraction` (φ_M) and `effective_fraction` \
+                         (φ_eff) with `grading`",
+                    )),
+                };
+            take.map_err(|e| invalid(field(&e), e.to_string()))
+        })())
     }
 
-    /// The diameters of all spheres as written in the scene (before seeding scale).
-    fn diameters(&self) -> Vec<f64> {
+    /// The particles' true diameters: as written, or drawn from the grading curve with `rng`
+    /// (largest first). The scene must be valid.
+    pub fn true_diameters<R: Rng + ?Sized>(&self, rng: &mut R) -> Vec<f64> {
         let p = &self.particles;
+        if let Some(take) = self.take_phase() {
+            return take.expect("a validated scene").sample(rng);
+        }
         match &p.components {
             Some(cs) => cs
                 .iter()
@@ -265,6 +362,28 @@ impl Scene {
                 .collect(),
             None => vec![p.diameter.unwrap_or(0.0); p.count.unwrap_or(0)],
         }
+    }
+
+    /// The factor from true to seeding diameters: `particles.seed_scale`, or the one that
+    /// gives `particles.packing_fraction`, or the default (0.9 when the first stage grows to
+    /// `full_size`, paper 001 §6.2; else 1).
+    pub fn seed_scale(&self, true_diameters: &[f64]) -> f64 {
+        let p = &self.particles;
+        if let Some(phi) = p.packing_fraction {
+            return (phi * self.container_volume() / sphere_volume(true_diameters)).cbrt();
+        }
+        p.seed_scale.unwrap_or(
+            if self.method == Method::Edmd
+                && self
+                    .stages
+                    .first()
+                    .is_some_and(|s| s.until.full_size == Some(true))
+            {
+                DEFAULT_SEED_SCALE
+            } else {
+                1.0
+            },
+        )
     }
 
     /// Volume of the container.
@@ -277,6 +396,12 @@ impl Scene {
         }
     }
 
+    /// Index of the stage that opens a gap (`until.gap` or `until.max_gap`), if any. It is
+    /// always the last stage.
+    pub fn gap_stage(&self) -> Option<usize> {
+        self.stages.iter().position(StageSpec::opens_gap)
+    }
+
     /// Checks every field against its allowed range.
     pub fn validate(&self) -> Result<(), SceneError> {
         positive("temperature", self.temperature)?;
@@ -285,8 +410,102 @@ impl Scene {
             self.events_per_particle_per_interval,
         )?;
         positive("neighbour_skin", self.neighbour_skin)?;
-        // Container.
-        let (smallest_extent, periodic_extent) = match &self.container {
+        let (smallest_extent, periodic_extent) = self.validate_container()?;
+        let sizes = self.validate_particles()?;
+        let container = self.container_volume();
+        let p = &self.particles;
+        if p.packing_fraction.is_some() && p.seed_scale.is_some() {
+            return Err(invalid(
+                "particles.seed_scale",
+                "give either `seed_scale` or `packing_fraction`, not both",
+            ));
+        }
+        if let Some(phi) = p.packing_fraction {
+            fraction("particles.packing_fraction", phi)?;
+        } else if sizes.volume / container >= 1.0 {
+            return Err(invalid(
+                "particles",
+                format!(
+                    "the spheres fill {:.3} of the container; the packing fraction must be < 1",
+                    sizes.volume / container
+                ),
+            ));
+        }
+        if let Some(x) = p.seed_scale {
+            if !(x.is_finite() && x > 0.0 && x <= 1.0) {
+                return Err(invalid(
+                    "particles.seed_scale",
+                    format!("= {x} is outside the allowed range (0, 1]"),
+                ));
+            }
+        }
+        let scale = match p.packing_fraction {
+            Some(phi) => (phi * container / sizes.volume).cbrt(),
+            None => p.seed_scale.unwrap_or(1.0),
+        };
+        let rsa_gap = p.gap.unwrap_or(0.0);
+        if let Some(g) = p.gap {
+            if self.method != Method::Rsa {
+                return Err(invalid(
+                    "particles.gap",
+                    "applies to method = \"rsa\"; with EDMD open a gap with a stage \
+                     `until = { gap = .. }`",
+                ));
+            }
+            if !(g.is_finite() && g >= 0.0) {
+                return Err(invalid("particles.gap", format!("= {g} must be ≥ 0")));
+            }
+        }
+        let d_seed = sizes.d_max * scale;
+        if d_seed + rsa_gap >= smallest_extent {
+            return Err(invalid(
+                "particles",
+                format!(
+                    "the largest sphere (diameter {d_seed}{}) does not fit the container \
+                     (smallest extent {smallest_extent})",
+                    if rsa_gap > 0.0 {
+                        format!(" plus the gap {rsa_gap}")
+                    } else {
+                        String::new()
+                    }
+                ),
+            ));
+        }
+        if rsa_gap > 0.0 {
+            let inflated =
+                sizes.count * std::f64::consts::PI / 6.0 * (sizes.d_min + rsa_gap).powi(3);
+            if inflated >= container {
+                return Err(invalid(
+                    "particles.gap",
+                    format!(
+                        "= {rsa_gap}: {:.0} spheres of at least {} plus the gap cannot fit the \
+                         container; lower the gap",
+                        sizes.count, sizes.d_min
+                    ),
+                ));
+            }
+        }
+        let final_diameter = self.validate_stages(&sizes, scale, container)?;
+        // Minimum image needs every contact distance below half the periodic box length.
+        if periodic_extent.is_finite()
+            && 2.0 * final_diameter.max(d_seed + rsa_gap) >= periodic_extent
+        {
+            let d = final_diameter.max(d_seed + rsa_gap);
+            return Err(invalid(
+                "container.size",
+                format!(
+                    "a periodic box edge must exceed twice the largest diameter the run can \
+                     reach ({d:.4}); give at least {:.4} or use more, smaller particles",
+                    2.0 * d
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Checks the container; returns its smallest extent and smallest periodic edge.
+    fn validate_container(&self) -> Result<(f64, f64), SceneError> {
+        match &self.container {
             ContainerSpec::Box {
                 min,
                 size,
@@ -303,7 +522,7 @@ impl Scene {
                     .filter(|&k| periodic[k])
                     .map(|k| size[k])
                     .fold(f64::INFINITY, f64::min);
-                (smallest, periodic_min)
+                Ok((smallest, periodic_min))
             }
             ContainerSpec::Cylinder {
                 base_center,
@@ -315,13 +534,43 @@ impl Scene {
                 if base_center.iter().any(|x| !x.is_finite()) {
                     return Err(invalid("container.base_center", "must be finite"));
                 }
-                ((2.0 * radius).min(*height), f64::INFINITY)
+                Ok(((2.0 * radius).min(*height), f64::INFINITY))
             }
-        };
-        // Particles.
+        }
+    }
+
+    /// Checks the particle description; returns its nominal sizes (expected ones for a
+    /// grading curve).
+    fn validate_particles(&self) -> Result<NominalSizes, SceneError> {
         let p = &self.particles;
-        match (&p.components, p.count, p.diameter) {
-            (Some(cs), None, None) => {
+        if p.rsa_max_failures == 0 {
+            return Err(invalid("particles.rsa_max_failures", "= 0 must be ≥ 1"));
+        }
+        let graded = p.grading.is_some();
+        if !graded
+            && (p.mixture_fraction.is_some() || p.effective_fraction.is_some() || p.d_min.is_some())
+        {
+            let field = if p.d_min.is_some() {
+                "particles.d_min"
+            } else if p.effective_fraction.is_some() {
+                "particles.effective_fraction"
+            } else {
+                "particles.mixture_fraction"
+            };
+            return Err(invalid(field, "applies only with `grading`"));
+        }
+        match (&p.components, p.count, p.diameter, graded) {
+            (None, None, None, true) => {
+                let take = self.take_phase().expect("graded")?;
+                let summary = take.summary();
+                Ok(NominalSizes {
+                    count: summary.expected_count,
+                    d_min: summary.smallest_diameter,
+                    d_max: summary.largest_diameter,
+                    volume: summary.aggregate_volume,
+                })
+            }
+            (Some(cs), None, None, false) => {
                 if cs.is_empty() {
                     return Err(invalid(
                         "particles.components",
@@ -337,55 +586,64 @@ impl Scene {
                     }
                     positive(&format!("particles.components[{k}].diameter"), c.diameter)?;
                 }
+                let diameters: Vec<f64> = cs.iter().map(|c| c.diameter).collect();
+                Ok(NominalSizes {
+                    count: cs.iter().map(|c| c.count as f64).sum(),
+                    d_min: diameters.iter().copied().fold(f64::INFINITY, f64::min),
+                    d_max: diameters.iter().copied().fold(0.0, f64::max),
+                    volume: cs
+                        .iter()
+                        .map(|c| c.count as f64 * sphere_volume(&[c.diameter]))
+                        .sum(),
+                })
             }
-            (None, Some(count), Some(d)) => {
+            (None, Some(count), Some(d), false) => {
                 if count == 0 {
                     return Err(invalid("particles.count", "= 0 must be ≥ 1"));
                 }
                 positive("particles.diameter", d)?;
+                Ok(NominalSizes {
+                    count: count as f64,
+                    d_min: d,
+                    d_max: d,
+                    volume: count as f64 * sphere_volume(&[d]),
+                })
             }
-            _ => {
-                return Err(invalid(
-                    "particles",
-                    "give either `count` and `diameter`, or `components`",
-                ))
-            }
+            _ => Err(invalid(
+                "particles",
+                "give exactly one of: `count` and `diameter`; `components`; or `grading` \
+                 with `mixture_fraction` and `d_min`",
+            )),
         }
-        if p.rsa_max_failures == 0 {
-            return Err(invalid("particles.rsa_max_failures", "= 0 must be ≥ 1"));
-        }
-        let container = self.container_volume();
-        if let Some(phi) = p.packing_fraction {
-            fraction("particles.packing_fraction", phi)?;
-        } else {
-            let filled = sphere_volume(&self.diameters()) / container;
-            if filled >= 1.0 {
+    }
+
+    /// Checks the stages; returns the largest diameter the run can reach (for the
+    /// minimum-image bound of periodic boxes).
+    fn validate_stages(
+        &self,
+        sizes: &NominalSizes,
+        scale: f64,
+        container: f64,
+    ) -> Result<f64, SceneError> {
+        if self.method == Method::Rsa {
+            if !self.stages.is_empty() {
                 return Err(invalid(
-                    "particles",
-                    format!(
-                        "the spheres fill {filled:.3} of the container; the packing fraction \
-                         must be < 1"
-                    ),
+                    "stage",
+                    "method = \"rsa\" takes no stages (the seeding is the packing)",
                 ));
             }
+            return Ok(sizes.d_max * scale);
         }
-        let diameters = self.seeding_diameters();
-        let seeded_phi = sphere_volume(&diameters) / container;
-        let d_max = diameters.iter().copied().fold(0.0, f64::max);
-        if d_max >= smallest_extent {
-            return Err(invalid(
-                "particles",
-                format!(
-                    "the largest sphere (diameter {d_max}) does not fit the container \
-                     (smallest extent {smallest_extent})"
-                ),
-            ));
-        }
-        // Stages.
         if self.stages.is_empty() {
             return Err(invalid("stage", "at least one [[stage]] is required"));
         }
-        let mut grows = false;
+        // Upper bound on any gap: N spheres of at least d_min + Δd must fit the volume.
+        let gap_bound =
+            (6.0 * container / (std::f64::consts::PI * sizes.count)).cbrt() - sizes.d_min;
+        let seeded_phi = sizes.volume * scale.powi(3) / container;
+        let mut final_diameter = sizes.d_max * scale;
+        let mut at_true_size = scale == 1.0;
+        let last = self.stages.len() - 1;
         for (k, s) in self.stages.iter().enumerate() {
             let f = |name: &str| format!("stage[{k}].{name}");
             match (s.growth, s.rate) {
@@ -394,21 +652,30 @@ impl Scene {
                 }
                 (GrowthKind::None, None) => {}
                 (_, None) => return Err(invalid(f("rate"), "is required when the particles grow")),
-                (_, Some(r)) => {
-                    positive(&f("rate"), r)?;
-                    grows = true;
-                }
+                (_, Some(r)) => positive(&f("rate"), r)?,
             }
             let u = &s.until;
             if u.packing_fraction.is_none()
                 && u.reduced_pressure.is_none()
                 && u.time.is_none()
                 && u.collisions_per_particle.is_none()
+                && u.full_size.is_none()
+                && u.gap.is_none()
+                && u.max_gap.is_none()
             {
                 return Err(invalid(
                     f("until"),
-                    "needs a goal: packing_fraction, reduced_pressure, time or collisions_per_particle",
+                    "needs a goal: packing_fraction, reduced_pressure, time, \
+                     collisions_per_particle, full_size, gap or max_gap",
                 ));
+            }
+            for (name, flag) in [("full_size", u.full_size), ("max_gap", u.max_gap)] {
+                if flag == Some(false) {
+                    return Err(invalid(
+                        f(&format!("until.{name}")),
+                        "= false is not a goal; remove it or set it to true",
+                    ));
+                }
             }
             if let Some(x) = u.packing_fraction {
                 fraction(&f("until.packing_fraction"), x)?;
@@ -444,59 +711,139 @@ impl Scene {
                     return Err(invalid(f("stall_epsilon"), format!("= {x} must be ≥ 0")));
                 }
             }
-        }
-        // Minimum image needs every contact distance below half the periodic box length.
-        // Growth can at most reach the Kepler fraction for equal spheres; bound the final
-        // diameter by it (polydisperse scenes by the same scale, a conservative estimate).
-        if periodic_extent.is_finite() {
-            let mut final_phi = seeded_phi;
-            if grows {
-                final_phi = self
-                    .stages
-                    .iter()
-                    .filter_map(|s| s.until.packing_fraction)
-                    .fold(final_phi, f64::max);
-                if self
-                    .stages
-                    .iter()
-                    .any(|s| s.growth != GrowthKind::None && s.until.packing_fraction.is_none())
-                {
-                    final_phi = final_phi.max(KEPLER_FRACTION);
+            if u.full_size.is_some() {
+                if s.growth != GrowthKind::Relative {
+                    return Err(invalid(
+                        f("until.full_size"),
+                        "needs growth = \"relative\" (all sizes reach their target together, \
+                         Eq. 30)",
+                    ));
                 }
+                if u.packing_fraction.is_some() {
+                    return Err(invalid(
+                        f("until.full_size"),
+                        "give either `full_size` or `packing_fraction`",
+                    ));
+                }
+                at_true_size = true;
+                final_diameter = final_diameter.max(sizes.d_max);
             }
-            let d_final = d_max * (final_phi / seeded_phi).cbrt();
-            if 2.0 * d_final >= periodic_extent {
-                return Err(invalid(
-                    "container.size",
-                    format!(
-                        "a periodic box edge must exceed twice the largest diameter the run can \
-                         reach ({:.4}); give at least {:.4} or use more, smaller particles",
-                        d_final,
-                        2.0 * d_final
-                    ),
-                ));
+            if s.opens_gap() {
+                let field = f(if u.gap.is_some() {
+                    "until.gap"
+                } else {
+                    "until.max_gap"
+                });
+                if u.gap.is_some() && u.max_gap.is_some() {
+                    return Err(invalid(field, "give either `gap` or `max_gap`"));
+                }
+                if s.growth != GrowthKind::Absolute {
+                    return Err(invalid(
+                        field,
+                        "needs growth = \"absolute\" (every radius gains the same, Eq. 31)",
+                    ));
+                }
+                if k != last {
+                    return Err(invalid(field, "must be the goal of the last stage"));
+                }
+                if !at_true_size {
+                    return Err(invalid(
+                        field,
+                        "needs the spheres at their true sizes: put a stage with \
+                         `until = { full_size = true }` before it, or seed at true size \
+                         (seed_scale = 1, no packing_fraction)",
+                    ));
+                }
+                if u.packing_fraction.is_some() || u.full_size.is_some() {
+                    return Err(invalid(
+                        field,
+                        "cannot be combined with packing_fraction or full_size",
+                    ));
+                }
+                let gap = match u.gap {
+                    Some(g) => {
+                        positive(&field, g)?;
+                        if g >= gap_bound {
+                            return Err(invalid(
+                                field,
+                                format!(
+                                    "= {g} cannot be reached: {:.0} spheres of at least {:.4} \
+                                     plus the gap would overfill the container (gap < {:.4}); \
+                                     lower the gap or the mixture fraction",
+                                    sizes.count,
+                                    sizes.d_min,
+                                    gap_bound.max(0.0)
+                                ),
+                            ));
+                        }
+                        g
+                    }
+                    None => gap_bound.max(0.0),
+                };
+                final_diameter = final_diameter.max(sizes.d_max + gap);
+            } else if s.growth != GrowthKind::None && u.full_size.is_none() {
+                // Growth to a fraction, or to jamming (bounded by the Kepler fraction for
+                // equal spheres; polydisperse scenes by the same scale, an estimate).
+                let phi = u.packing_fraction.unwrap_or(KEPLER_FRACTION);
+                at_true_size = false;
+                final_diameter = final_diameter
+                    .max(sizes.d_max * scale * (phi.max(seeded_phi) / seeded_phi).cbrt());
             }
         }
-        Ok(())
+        Ok(final_diameter)
     }
 }
 
+/// Seeding scale `δ` of paper 001, §6.2: spheres are seeded at 90 % of their diameter and
+/// grown back.
+pub const DEFAULT_SEED_SCALE: f64 = 0.9;
+
+/// Count, extreme diameters and total volume of a scene's spheres at their true sizes
+/// (expected values for a grading curve).
+struct NominalSizes {
+    count: f64,
+    d_min: f64,
+    d_max: f64,
+    volume: f64,
+}
+
 impl StageSpec {
-    /// The kernel stage this spec describes.
-    pub fn to_stage(&self) -> Stage {
+    /// Whether this stage opens a gap between the particles (`until.gap` or `max_gap`).
+    pub fn opens_gap(&self) -> bool {
+        self.until.gap.is_some() || self.until.max_gap.is_some()
+    }
+
+    /// The kernel stage this spec describes. `full_size_fraction` is the packing fraction
+    /// of the spheres at their true sizes (the `full_size` goal).
+    pub fn to_stage(&self, full_size_fraction: f64) -> Stage {
         let growth = match (self.growth, self.rate) {
             (GrowthKind::Relative, Some(r)) => Growth::Relative(r),
             (GrowthKind::Absolute, Some(r)) => Growth::Absolute(r),
             _ => Growth::None,
         };
+        let u = &self.until;
+        let mut until = Until {
+            packing_fraction: u.packing_fraction,
+            reduced_pressure: u.reduced_pressure,
+            time: u.time,
+            collisions_per_particle: u.collisions_per_particle,
+        };
+        if u.full_size == Some(true) {
+            until.packing_fraction = Some(full_size_fraction);
+        }
+        if let (Some(gap), Some(rate)) = (u.gap, self.rate) {
+            // Every radius gains Δd/2 at the absolute rate (Eq. 31).
+            let t = 0.5 * gap / rate;
+            until.time = Some(until.time.map_or(t, |x| x.min(t)));
+        }
+        // A gap stage that jams cannot open its gap: stop there (failure) instead of
+        // grinding on; a max_gap stage stops there by design.
+        if self.opens_gap() && until.reduced_pressure.is_none() {
+            until.reduced_pressure = Some(DEFAULT_JAMMING_PRESSURE);
+        }
         Stage {
             growth,
-            until: Until {
-                packing_fraction: self.until.packing_fraction,
-                reduced_pressure: self.until.reduced_pressure,
-                time: self.until.time,
-                collisions_per_particle: self.until.collisions_per_particle,
-            },
+            until,
             limits: Limits {
                 events: self.max_events.unwrap_or(u64::MAX),
                 wall_seconds: self.max_wall_seconds,
@@ -506,3 +853,6 @@ impl StageSpec {
         }
     }
 }
+
+/// Reduced pressure taken as jammed when a `gap` or `max_gap` stage gives none.
+pub const DEFAULT_JAMMING_PRESSURE: f64 = 1e12;

@@ -219,6 +219,9 @@ pub enum TakeError {
     /// Mixture fraction outside `(0, 1)`.
     #[error("take phase: phi_m = {0} is outside the open interval (0, 1)")]
     MixtureFraction(f64),
+    /// Effective fraction outside `(0, 1)`.
+    #[error("take phase: phi_eff = {0} is outside the open interval (0, 1)")]
+    EffectiveFraction(f64),
     /// Container volume not finite and positive.
     #[error("take phase: volume = {0} mm³ must be finite and > 0")]
     Volume(f64),
@@ -729,11 +732,47 @@ impl TakePhase {
     /// `(0, d_max)`, or `d_min` below the smallest sieve of a table when material passes
     /// that sieve.
     pub fn new(curve: &GradingCurve, params: TakeParams) -> Result<Self, TakeError> {
-        if !(params.volume.is_finite() && params.volume > 0.0) {
-            return Err(TakeError::Volume(params.volume));
-        }
         if !(params.phi_m > 0.0 && params.phi_m < 1.0) {
             return Err(TakeError::MixtureFraction(params.phi_m));
+        }
+        Self::build(curve, params)
+    }
+
+    /// A take phase that fills the fraction `phi_eff` of `volume` with the grains of the
+    /// curve between `d_min` and `d_max` (the paper's first experiment, §6.2, prescribes
+    /// `φ_eff` directly). The implied mixture fraction `φ_M = φ_eff / (1 − F(d_min))` may
+    /// exceed 1: the curve then only describes the size distribution above the cut-off.
+    ///
+    /// Errors as [`TakePhase::new`], with `phi_eff` outside `(0, 1)` reported as
+    /// [`TakeError::EffectiveFraction`].
+    pub fn for_effective_fraction(
+        curve: &GradingCurve,
+        volume: f64,
+        phi_eff: f64,
+        d_min: f64,
+    ) -> Result<Self, TakeError> {
+        if !(phi_eff > 0.0 && phi_eff < 1.0) {
+            return Err(TakeError::EffectiveFraction(phi_eff));
+        }
+        let above = 1.0 - curve.passing(d_min.clamp(0.0, curve.d_max()));
+        let phi_m = if above > 0.0 {
+            phi_eff / above
+        } else {
+            f64::INFINITY
+        };
+        Self::build(
+            curve,
+            TakeParams {
+                volume,
+                phi_m,
+                d_min,
+            },
+        )
+    }
+
+    fn build(curve: &GradingCurve, params: TakeParams) -> Result<Self, TakeError> {
+        if !(params.volume.is_finite() && params.volume > 0.0) {
+            return Err(TakeError::Volume(params.volume));
         }
         let d_max = curve.d_max();
         if !(params.d_min > 0.0 && params.d_min < d_max) {

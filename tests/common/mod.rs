@@ -91,3 +91,81 @@ pub fn carnahan_starling(phi: f64) -> f64 {
 pub fn kolafa(phi: f64) -> f64 {
     (1.0 + phi + phi * phi - 2.0 / 3.0 * phi.powi(3) * (1.0 + phi)) / (1.0 - phi).powi(3)
 }
+
+/// Brute-force check of a packing's promised gap and containment, written for the tests and
+/// independent of the kernel and of `densepack::verify`: every pair (minimum image on periodic
+/// axes, all pairs) at least `(1 − 1e-9)·(r_i + r_j) + min_gap` apart, and every sphere at
+/// least `(1 − 1e-9)·r + min_gap/2` inside each wall (box faces that are not periodic, or the
+/// cylinder's mantle and caps). Returns the smallest surface gap `|c_i − c_j| − r_i − r_j`.
+pub fn assert_gap_and_containment(packing: &Packing) -> f64 {
+    use densepack::io::packing::ContainerRecord;
+    let gap = packing.min_gap;
+    let balls: Vec<([f64; 3], f64)> = packing
+        .particles
+        .iter()
+        .map(|p| match p {
+            ParticleRecord::Sphere { center, radius } => (*center, *radius),
+        })
+        .collect();
+    let (len, periodic) = match &packing.container {
+        ContainerRecord::Box { min, max, periodic } => {
+            for (i, (c, r)) in balls.iter().enumerate() {
+                for k in 0..3 {
+                    if periodic[k] {
+                        continue;
+                    }
+                    let inside = (c[k] - min[k]).min(max[k] - c[k]);
+                    assert!(
+                        inside >= (1.0 - 1e-9) * r + 0.5 * gap,
+                        "sphere {i} (r = {r}) is {inside} from a wall on axis {k}, less than r + gap/2"
+                    );
+                }
+            }
+            (
+                [max[0] - min[0], max[1] - min[1], max[2] - min[2]],
+                *periodic,
+            )
+        }
+        ContainerRecord::Cylinder {
+            base_center,
+            radius,
+            height,
+        } => {
+            for (i, (c, r)) in balls.iter().enumerate() {
+                let radial =
+                    ((c[0] - base_center[0]).powi(2) + (c[1] - base_center[1]).powi(2)).sqrt();
+                let axial = (c[2] - base_center[2]).min(base_center[2] + height - c[2]);
+                let inside = (radius - radial).min(axial);
+                assert!(
+                    inside >= (1.0 - 1e-9) * r + 0.5 * gap,
+                    "sphere {i} (r = {r}) is {inside} from the cylinder wall, less than r + gap/2"
+                );
+            }
+            ([0.0; 3], [false; 3])
+        }
+    };
+    let mut smallest = f64::INFINITY;
+    for i in 0..balls.len() {
+        for j in i + 1..balls.len() {
+            let (ci, ri) = balls[i];
+            let (cj, rj) = balls[j];
+            let d2: f64 = (0..3)
+                .map(|k| {
+                    let mut d = ci[k] - cj[k];
+                    if periodic[k] {
+                        d -= len[k] * (d / len[k]).round();
+                    }
+                    d * d
+                })
+                .sum();
+            let d = d2.sqrt();
+            assert!(
+                d >= (1.0 - 1e-9) * (ri + rj) + gap,
+                "spheres {i} and {j} are {} apart at the surfaces, less than the gap {gap}",
+                d - ri - rj
+            );
+            smallest = smallest.min(d - ri - rj);
+        }
+    }
+    smallest
+}

@@ -1,0 +1,234 @@
+//! Concrete mesostructures (paper 001, §2–6): grading-curve scenes packed by RSA with a gap,
+//! grown to full size by EDMD, given a minimum gap Δd or the largest one, in walled boxes,
+//! periodic boxes and cylinder specimens. Every packing is checked by the brute-force gap and
+//! containment check of `tests/common`, independent of the kernel and of `densepack::verify`.
+
+mod common;
+
+use common::{assert_gap_and_containment, run_toml};
+use densepack::io::packing::{Packing, ParticleRecord};
+use densepack::io::scene::{Scene, SceneError};
+use densepack::protocol::take_phase::{DinCurve, GradingCurve, TakeParams, TakePhase};
+use rand::SeedableRng;
+use rand_xoshiro::Xoshiro256PlusPlus;
+
+fn diameters(packing: &Packing) -> Vec<f64> {
+    let mut d: Vec<f64> = packing
+        .particles
+        .iter()
+        .map(|p| match p {
+            ParticleRecord::Sphere { radius, .. } => 2.0 * radius,
+        })
+        .collect();
+    d.sort_by(|a, b| b.total_cmp(a));
+    d
+}
+
+fn volume_fraction(diameters: &[f64], volume: f64) -> f64 {
+    diameters
+        .iter()
+        .map(|d| std::f64::consts::PI / 6.0 * d.powi(3))
+        .sum::<f64>()
+        / volume
+}
+
+#[test]
+fn rsa_keeps_the_gap_in_a_cylinder_specimen() {
+    let packing = run_toml(
+        r#"
+seed = 3
+method = "rsa"
+[container]
+type = "cylinder"
+radius = 40.0
+height = 80.0
+[particles]
+grading = { kind = "din", name = "A16" }
+mixture_fraction = 0.35
+d_min = 4.0
+gap = 1.0
+"#,
+    )
+    .packing;
+    assert_eq!(packing.min_gap, 1.0);
+    assert_eq!(packing.stats.stop_reason, "rsa_complete");
+    assert!(packing.stats.reduced_pressure.is_none());
+    let smallest = assert_gap_and_containment(&packing);
+    assert!(smallest >= 1.0 - 1e-9, "{smallest}");
+    // The sample fills φ_eff = φ_M (1 − F(4 mm)) = 0.35 · (1 − 0.36), overshooting by less
+    // than one grain of the smallest class (4 mm in ≈ 0.4 · 10⁶ mm³: 8e-5).
+    let phi = packing.stats.packing_fraction;
+    assert!((phi - 0.35 * 0.64).abs() < 1e-4, "φ = {phi}");
+}
+
+#[test]
+fn edmd_grows_a16_to_full_size_then_opens_a_one_millimetre_gap() {
+    let text = r#"
+seed = 5
+mass = "volume"
+[container]
+type = "box"
+size = [40.0, 40.0, 40.0]
+periodic = [false, false, false]
+[particles]
+grading = { kind = "din", name = "A16" }
+mixture_fraction = 0.45
+d_min = 2.0
+[[stage]]
+growth = "relative"
+rate = 0.05
+until = { full_size = true }
+[[stage]]
+growth = "absolute"
+rate = 0.02
+until = { gap = 1.0 }
+"#;
+    let outcome = run_toml(text);
+    let packing = &outcome.packing;
+    // The written gap is the one asked for (every radius gained 0.5 mm; rounding only).
+    assert!((packing.min_gap - 1.0).abs() < 1e-9, "{}", packing.min_gap);
+    let smallest = assert_gap_and_containment(packing);
+    assert!(smallest >= 1.0 - 1e-9);
+    // Particles are written at their true sizes: exactly the take phase's draw for the seed
+    // (the run's generator draws the diameters first), not the inflated ones.
+    let take = TakePhase::new(
+        &GradingCurve::din(DinCurve::A16),
+        TakeParams {
+            volume: 40.0_f64.powi(3),
+            phi_m: 0.45,
+            d_min: 2.0,
+        },
+    )
+    .unwrap();
+    let expected = take.sample(&mut Xoshiro256PlusPlus::seed_from_u64(5));
+    let written = diameters(packing);
+    assert_eq!(written.len(), expected.len());
+    for (w, e) in written.iter().zip(&expected) {
+        assert!((w - e).abs() <= 1e-12 * e, "{w} vs {e}");
+    }
+    // φ_eff = 0.45 · (1 − 0.21) to within one smallest grain.
+    assert!((packing.stats.packing_fraction - 0.45 * 0.79).abs() < 1e-3);
+    assert_eq!(outcome.stages.len(), 2);
+}
+
+#[test]
+fn gap_maximisation_ends_with_the_gap_tight() {
+    let text = r#"
+seed = 9
+[container]
+type = "box"
+size = [64.0, 64.0, 64.0]
+periodic = [true, true, true]
+[particles]
+grading = { kind = "din", name = "B16" }
+mixture_fraction = 0.6
+d_min = 4.0
+seed_scale = 1.0
+[[stage]]
+growth = "absolute"
+rate = 0.02
+until = { max_gap = true }
+"#;
+    let outcome = run_toml(text);
+    let packing = &outcome.packing;
+    let gap = packing.min_gap;
+    assert!(gap > 0.5, "Δd_max = {gap}");
+    assert_eq!(packing.stats.stop_reason, "jammed");
+    // At jamming the inflated spheres touch: the smallest surface gap is Δd_max itself (the
+    // kernel stops at reduced pressure 1e12, so contacts are closed to ~1e-11 of a diameter).
+    let smallest = assert_gap_and_containment(packing);
+    assert!(
+        (smallest - gap).abs() < 1e-6 * gap,
+        "smallest gap {smallest}, Δd_max {gap}"
+    );
+}
+
+#[test]
+fn fuller_grains_grow_to_full_size_in_a_cylinder_specimen() {
+    let outcome = run_toml(
+        r#"
+seed = 2
+mass = "volume"
+[container]
+type = "cylinder"
+radius = 30.0
+height = 60.0
+[particles]
+grading = { kind = "fuller", q = 0.5, d_max = 16.0 }
+effective_fraction = 0.55
+d_min = 4.0
+[[stage]]
+growth = "relative"
+rate = 0.05
+until = { full_size = true }
+"#,
+    );
+    let packing = &outcome.packing;
+    assert_eq!(packing.stats.stop_reason, "packing_fraction_reached");
+    assert_eq!(packing.min_gap, 0.0);
+    assert_gap_and_containment(packing);
+    let v = std::f64::consts::PI * 30.0 * 30.0 * 60.0;
+    let phi = volume_fraction(&diameters(packing), v);
+    assert!((phi - 0.55).abs() < 2e-3, "φ_eff = {phi}");
+    assert!((packing.stats.packing_fraction - phi).abs() < 1e-12);
+}
+
+fn scene_error(text: &str) -> (String, String) {
+    match Scene::from_toml(text) {
+        Err(SceneError::Invalid { field, message }) => (field, message),
+        other => panic!("expected a field error, got {other:?}"),
+    }
+}
+
+const BOX: &str = "seed = 1\n[container]\ntype = \"box\"\nsize = [80.0, 80.0, 80.0]\nperiodic = [false, false, false]\n";
+
+#[test]
+fn impossible_concrete_requests_fail_fast_naming_what_to_change() {
+    let stage_full =
+        "[[stage]]\ngrowth = \"relative\"\nrate = 0.05\nuntil = { full_size = true }\n";
+    let cases: [(String, &str, &str); 7] = [
+        (
+            format!("{BOX}[particles]\ngrading = {{ kind = \"din\", name = \"A16\" }}\nmixture_fraction = 1.2\nd_min = 2.0\n{stage_full}"),
+            "particles.mixture_fraction",
+            "(0, 1)",
+        ),
+        (
+            format!("{BOX}[particles]\ngrading = {{ kind = \"fuller\", q = 0.5, d_max = 16.0 }}\neffective_fraction = 1.0\nd_min = 2.0\n{stage_full}"),
+            "particles.effective_fraction",
+            "(0, 1)",
+        ),
+        (
+            format!("{BOX}[particles]\ngrading = {{ kind = \"table\", sizes = [2.0, 8.0, 4.0], passing = [0.0, 50.0, 100.0] }}\nmixture_fraction = 0.6\nd_min = 2.0\n{stage_full}"),
+            "particles.grading",
+            "strictly increasing",
+        ),
+        (
+            format!("{BOX}[particles]\ngrading = {{ kind = \"din\", name = \"B16\" }}\nmixture_fraction = 0.6\nd_min = 32.0\n{stage_full}"),
+            "particles.d_min",
+            "d_max",
+        ),
+        (
+            // Box smaller than the largest grain.
+            "seed = 1\n[container]\ntype = \"box\"\nsize = [12.0, 80.0, 80.0]\nperiodic = [false, false, false]\n[particles]\ngrading = { kind = \"din\", name = \"A16\" }\nmixture_fraction = 0.3\nd_min = 2.0\n[[stage]]\ngrowth = \"relative\"\nrate = 0.05\nuntil = { full_size = true }\n".into(),
+            "particles",
+            "does not fit",
+        ),
+        (
+            // Δd too large: ~5000 grains of ≥ 2 mm plus 4 mm cannot fit 80³ mm³.
+            format!("{BOX}[particles]\ngrading = {{ kind = \"din\", name = \"A16\" }}\nmixture_fraction = 0.535\nd_min = 2.0\n{stage_full}[[stage]]\ngrowth = \"absolute\"\nrate = 0.01\nuntil = {{ gap = 4.0 }}\n"),
+            "stage[1].until.gap",
+            "lower the gap",
+        ),
+        (
+            // A gap stage needs the true sizes first.
+            format!("{BOX}[particles]\ngrading = {{ kind = \"din\", name = \"A16\" }}\nmixture_fraction = 0.5\nd_min = 2.0\nseed_scale = 0.9\n[[stage]]\ngrowth = \"absolute\"\nrate = 0.01\nuntil = {{ gap = 1.0 }}\n"),
+            "stage[0].until.gap",
+            "full_size",
+        ),
+    ];
+    for (text, field, needle) in cases {
+        let (f, m) = scene_error(&text);
+        assert_eq!(f, field, "{m}");
+        assert!(m.contains(needle), "{field}: {m}");
+    }
+}
