@@ -35,8 +35,14 @@
 //!   with the hidden `--child-memory N QUEUE`) seeds N spheres at φ = 0.3 and grows them to
 //!   φ = 0.4, then reports `VmHWM` from `/proc/self/status`. N = 10⁵, 10⁶ (quick: 10⁵).
 //!
+//! * `fuller`, `gap`, `gapmax`, `concrete-jam` — the concrete experiments of paper 001, §6
+//!   (see `benches/studies/concrete.rs`).
+//!
 //! As with criterion, the binary benchmarks only when cargo passes `--bench`
 //! (`cargo bench`); run by `cargo test --benches` it runs one tiny scene as a smoke test.
+
+#[path = "studies/concrete.rs"]
+mod concrete;
 
 use densepack::io::scene::Scene;
 use densepack::kernel::StageReport;
@@ -55,7 +61,17 @@ const JAM_SCENE: &str = include_str!("../examples/scenes/mono_periodic_jam.toml"
 /// Both event queues, by their scene names.
 const QUEUES: [&str; 2] = ["heap", "calendar"];
 /// The studies, in the order they run.
-const STUDIES: [&str; 5] = ["equilibrium", "jamming", "scaling", "tuning", "memory"];
+const STUDIES: [&str; 9] = [
+    "equilibrium",
+    "jamming",
+    "scaling",
+    "tuning",
+    "memory",
+    "fuller",
+    "gap",
+    "gapmax",
+    "concrete-jam",
+];
 
 /// Command-line options.
 struct Options {
@@ -92,12 +108,16 @@ fn main() -> ExitCode {
             .is_none_or(|only| only.iter().any(|o| o == name))
     };
     type Study = fn(bool) -> String;
-    let studies: [(&str, Study); 5] = [
+    let studies: [(&str, Study); 9] = [
         ("equilibrium", equilibrium),
         ("jamming", jamming),
         ("scaling", scaling),
         ("tuning", tuning),
         ("memory", memory),
+        ("fuller", concrete::fuller),
+        ("gap", concrete::gap),
+        ("gapmax", concrete::gapmax),
+        ("concrete-jam", concrete::jam),
     ];
     for (name, study) in studies {
         if selected(name) {
