@@ -94,7 +94,7 @@ pub fn run_scene(
     }
 }
 
-fn dispatch_queue<B: Boundary + ContainerRecordOf>(
+fn dispatch_queue<B: Boundary + SceneContainer>(
     scene: &Scene,
     boundary: B,
     on_stage: &mut dyn FnMut(usize, &StageReport),
@@ -105,13 +105,15 @@ fn dispatch_queue<B: Boundary + ContainerRecordOf>(
     }
 }
 
-/// The packing-file description of a container.
-pub trait ContainerRecordOf {
-    /// The record.
+/// What a run needs of a container besides [`Boundary`].
+pub trait SceneContainer: Sized {
+    /// The packing-file description.
     fn record(&self) -> ContainerRecord;
+    /// The container with every wall moved outward by `by` (periodic axes unchanged).
+    fn expanded(&self, by: f64) -> Self;
 }
 
-impl ContainerRecordOf for PeriodicBox {
+impl SceneContainer for PeriodicBox {
     fn record(&self) -> ContainerRecord {
         ContainerRecord::Box {
             min: self.min.into(),
@@ -119,9 +121,12 @@ impl ContainerRecordOf for PeriodicBox {
             periodic: [true; 3],
         }
     }
+    fn expanded(&self, _: f64) -> Self {
+        self.clone()
+    }
 }
 
-impl ContainerRecordOf for WalledBox {
+impl SceneContainer for WalledBox {
     fn record(&self) -> ContainerRecord {
         ContainerRecord::Box {
             min: self.min.into(),
@@ -129,9 +134,17 @@ impl ContainerRecordOf for WalledBox {
             periodic: self.periodic,
         }
     }
+    fn expanded(&self, by: f64) -> Self {
+        let shift = Vec3::from_fn(|k, _| if self.periodic[k] { 0.0 } else { by });
+        Self {
+            min: self.min - shift,
+            max: self.max + shift,
+            periodic: self.periodic,
+        }
+    }
 }
 
-impl ContainerRecordOf for CylinderContainer {
+impl SceneContainer for CylinderContainer {
     fn record(&self) -> ContainerRecord {
         ContainerRecord::Cylinder {
             base_center: self.base_center.into(),
@@ -139,9 +152,16 @@ impl ContainerRecordOf for CylinderContainer {
             height: self.height,
         }
     }
+    fn expanded(&self, by: f64) -> Self {
+        Self {
+            base_center: self.base_center - Vec3::new(0.0, 0.0, by),
+            radius: self.radius + by,
+            height: self.height + 2.0 * by,
+        }
+    }
 }
 
-fn run_with<B: Boundary + ContainerRecordOf, Q: EventQueue>(
+fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
     scene: &Scene,
     boundary: B,
     on_stage: &mut dyn FnMut(usize, &StageReport),
@@ -151,14 +171,18 @@ fn run_with<B: Boundary + ContainerRecordOf, Q: EventQueue>(
     let true_diameters = scene.true_diameters(&mut rng);
     let scale = scene.seed_scale(&true_diameters);
     let radii: Vec<f64> = true_diameters.iter().map(|d| 0.5 * scale * d).collect();
-    let rsa_gap = match scene.method {
-        Method::Rsa => scene.particles.gap.unwrap_or(0.0),
-        Method::Edmd => 0.0,
+    let (rsa_gap, rsa_wall_gap) = match scene.method {
+        Method::Rsa => {
+            let gap = scene.particles.gap.unwrap_or(0.0);
+            (gap, scene.particles.wall_gap.unwrap_or(0.5 * gap))
+        }
+        Method::Edmd => (0.0, 0.0),
     };
     let centres = rsa_spheres(
         &boundary,
         &radii,
         rsa_gap,
+        rsa_wall_gap,
         scene.particles.rsa_max_failures,
         &mut rng,
     )?;
@@ -167,6 +191,7 @@ fn run_with<B: Boundary + ContainerRecordOf, Q: EventQueue>(
             centres,
             radii,
             min_gap: rsa_gap,
+            wall_gap: scene.particles.wall_gap,
         };
         let stats = RunStats {
             reduced_pressure: None,
@@ -201,9 +226,20 @@ fn run_with<B: Boundary + ContainerRecordOf, Q: EventQueue>(
     let mut reports: Vec<StageReport> = Vec::new();
     // Radii when a gap stage starts: the sizes written for a packing with a gap.
     let mut true_radii: Option<Vec<f64>> = None;
+    let container = kernel.boundary().record();
+    let original = kernel.boundary().clone();
+    // How far the walls stepped back for a gap stage that keeps less than half the gap to
+    // them.
+    let mut walls_moved = 0.0;
     for (k, spec) in scene.stages.iter().enumerate() {
         if spec.opens_gap() {
             true_radii = Some(radii_by_id(&kernel));
+            if let (Some(gap), Some(wall_gap)) = (spec.until.gap, spec.wall_gap) {
+                walls_moved = 0.5 * gap - wall_gap;
+                if walls_moved > 0.0 {
+                    kernel.replace_boundary(original.expanded(walls_moved));
+                }
+            }
         }
         let report = kernel.run_stage(&spec.to_stage(full_size_fraction));
         on_stage(k, &report);
@@ -234,18 +270,21 @@ fn run_with<B: Boundary + ContainerRecordOf, Q: EventQueue>(
         centres[id as usize] = p.pos;
     }
     let grown = radii_by_id(&kernel);
-    let (radii, min_gap) = match true_radii {
+    let (radii, min_gap, wall_gap) = match true_radii {
         // Every radius gained the same at the absolute rate; the guaranteed gap is twice
-        // the smallest gain (they differ only by rounding).
+        // the smallest gain (they differ only by rounding), and the gain less how far the
+        // walls stepped back to the walls.
         Some(true_radii) => {
             let gain = grown
                 .iter()
                 .zip(&true_radii)
                 .map(|(g, t)| g - t)
-                .fold(f64::INFINITY, f64::min);
-            (true_radii, 2.0 * gain.max(0.0))
+                .fold(f64::INFINITY, f64::min)
+                .max(0.0);
+            let wall_gap = (walls_moved > 0.0).then(|| (gain - walls_moved).max(0.0));
+            (true_radii, 2.0 * gain, wall_gap)
         }
-        None => (grown, 0.0),
+        None => (grown, 0.0, None),
     };
     let last = reports.last().expect("a scene has at least one stage");
     let events: u64 = reports.iter().map(|r| r.counts.events).sum();
@@ -274,15 +313,14 @@ fn run_with<B: Boundary + ContainerRecordOf, Q: EventQueue>(
         stop_reason: last.stop_reason.as_str(),
         extra,
     };
-    let container = kernel.boundary().record();
-    let boundary = kernel.boundary().clone();
     drop(kernel); // the verification's own index should not add to the kernel's peak memory
     let placed = Placed {
         centres,
         radii,
         min_gap,
+        wall_gap,
     };
-    finish(scene, container, &boundary, placed, stats, reports)
+    finish(scene, container, &original, placed, stats, reports)
 }
 
 /// Radii of the kernel's spheres, in the order of the seeding.
@@ -294,11 +332,13 @@ fn radii_by_id<B: Boundary, Q: EventQueue>(kernel: &Edmd<Sphere, B, Q>) -> Vec<f
     radii
 }
 
-/// Final sphere centres and radii (seeding order) and the gap they guarantee.
+/// Final sphere centres and radii (seeding order) and the gaps they guarantee.
 struct Placed {
     centres: Vec<Vec3>,
     radii: Vec<f64>,
     min_gap: f64,
+    /// Gap to the walls when it is not `min_gap / 2`.
+    wall_gap: Option<f64>,
 }
 
 /// What a run reports besides the particles.
@@ -343,6 +383,7 @@ fn finish<B: Boundary>(
         container,
         particles,
         min_gap: placed.min_gap,
+        wall_gap: placed.wall_gap,
         seed: scene.seed,
         stats: PackingStats {
             packing_fraction: volume / boundary.volume(),

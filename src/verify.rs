@@ -4,7 +4,7 @@
 //! on the packing as written ([`Packing`]), finds candidate pairs through its own hash grid
 //! and measures distances with its own minimum-image rule (`dx − L·round(dx/L)`). A pair is
 //! accepted when `|c_i − c_j| ≥ (1 − tol)·(r_i + r_j) + min_gap`, a sphere when its distance
-//! to every wall is at least `(1 − tol)·r + min_gap/2`, with `tol` = [`TOLERANCE`].
+//! to every wall is at least `(1 − tol)·r + wall_gap` (`wall_gap` defaults to `min_gap/2`), with `tol` = [`TOLERANCE`].
 
 use crate::io::packing::{ContainerRecord, Packing, ParticleRecord};
 use std::collections::HashMap;
@@ -59,6 +59,7 @@ pub fn verify(packing: &Packing) -> Verification {
         })
         .collect();
     let gap = packing.min_gap;
+    let wall_gap = packing.wall_gap();
     let mut out = Verification {
         particles: balls.len(),
         packing_fraction: 0.0,
@@ -145,13 +146,13 @@ pub fn verify(packing: &Packing) -> Verification {
         if wall_distance.is_finite() {
             let g = wall_distance - b.r;
             out.min_wall_gap = Some(out.min_wall_gap.map_or(g, |m: f64| m.min(g)));
-            if wall_distance < (1.0 - TOLERANCE) * b.r + 0.5 * gap {
+            if wall_distance < (1.0 - TOLERANCE) * b.r + wall_gap {
                 violate(
                     &mut out,
                     format!(
                         "particle {i} (radius {}) is {wall_distance} from a wall: needs ≥ {}",
                         b.r,
-                        b.r + 0.5 * gap
+                        b.r + wall_gap
                     ),
                 );
             }

@@ -232,3 +232,40 @@ fn impossible_concrete_requests_fail_fast_naming_what_to_change() {
         assert!(m.contains(needle), "{field}: {m}");
     }
 }
+
+#[test]
+fn a_gap_between_grains_only_lets_grains_touch_the_walls() {
+    // wall_gap = 0: the gap is kept between grains, and grains may reach the walls.
+    let text = r#"
+seed = 6
+mass = "volume"
+[container]
+type = "box"
+size = [40.0, 40.0, 40.0]
+periodic = [false, false, true]
+[particles]
+grading = { kind = "din", name = "A16" }
+mixture_fraction = 0.45
+d_min = 2.0
+[[stage]]
+growth = "absolute"
+rate = 0.02
+until = { gap = 1.0 }
+wall_gap = 0.0
+"#;
+    let packing = run_toml(text).packing;
+    assert!((packing.min_gap - 1.0).abs() < 1e-9);
+    assert!(packing.wall_gap.is_some_and(|w| w.abs() < 1e-9));
+    assert_gap_and_containment(&packing);
+    // Some grain sits closer to a wall than half the gap (else the option did nothing).
+    let closest = packing
+        .particles
+        .iter()
+        .map(|p| match p {
+            ParticleRecord::Sphere { center, radius } => (0..2)
+                .map(|k| center[k].min(40.0 - center[k]) - radius)
+                .fold(f64::INFINITY, f64::min),
+        })
+        .fold(f64::INFINITY, f64::min);
+    assert!(closest < 0.5, "closest wall gap {closest}");
+}

@@ -4,7 +4,7 @@
 //! {"format": "densepack-packing", "version": 1,
 //!  "container": {"type": "box", "min": [0,0,0], "max": [10,10,10], "periodic": [true,true,true]},
 //!  "particles": [{"type": "sphere", "center": [1.0, 2.0, 3.0], "radius": 0.5}],
-//!  "min_gap": 0.0, "seed": 42,
+//!  "min_gap": 0.0, "seed": 42,   // optional "wall_gap" (default min_gap / 2)
 //!  "stats": {"packing_fraction": 0.64, "reduced_pressure": 1e12, "events": 1, "collisions": 1,
 //!            "wall_seconds": 0.1, "stop_reason": "jammed"}}
 //! ```
@@ -84,8 +84,12 @@ pub struct Packing {
     pub container: ContainerRecord,
     /// The particles.
     pub particles: Vec<ParticleRecord>,
-    /// Guaranteed smallest surface-to-surface gap between particles (and half of it to walls).
+    /// Guaranteed smallest surface-to-surface gap between particles.
     pub min_gap: f64,
+    /// Guaranteed smallest gap between a particle's surface and a wall; absent means
+    /// `min_gap / 2`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wall_gap: Option<f64>,
     /// Seed of the run.
     pub seed: u64,
     /// Statistics.
@@ -117,6 +121,11 @@ pub enum PackingError {
 }
 
 impl Packing {
+    /// The gap promised between particles and walls: `wall_gap`, or half of `min_gap`.
+    pub fn wall_gap(&self) -> f64 {
+        self.wall_gap.unwrap_or(0.5 * self.min_gap)
+    }
+
     /// Reads and checks a packing file.
     pub fn read(path: &Path) -> Result<Self, PackingError> {
         let text = std::fs::read_to_string(path).map_err(|source| PackingError::Io {

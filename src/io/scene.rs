@@ -179,8 +179,11 @@ pub struct ParticlesSpec {
     /// Seeding scale `δ` in (0, 1]: spheres are seeded at `δ·d` (paper 001 §6.2). Default
     /// 0.9 when the first stage grows to `full_size`, else 1 (the true sizes).
     pub seed_scale: Option<f64>,
-    /// Minimum gap `Δd` kept by `method = "rsa"` between spheres (and `Δd/2` to walls).
+    /// Minimum gap `Δd` kept by `method = "rsa"` between spheres.
     pub gap: Option<f64>,
+    /// Gap kept by `method = "rsa"` between spheres and walls, in `[0, gap/2]` (default
+    /// `gap/2`: each grain keeps its half of the gap everywhere).
+    pub wall_gap: Option<f64>,
     /// Consecutive RSA rejections of one sphere before seeding fails (default 10⁶).
     #[serde(default = "default_rsa_failures")]
     pub rsa_max_failures: u64,
@@ -242,6 +245,11 @@ pub struct StageSpec {
     pub stall_epsilon: Option<f64>,
     /// Rescale velocities to the temperature at barriers (default: on when growing).
     pub thermostat: Option<bool>,
+    /// With `until.gap`: the gap kept between the grains and the walls, in `[0, gap/2]`
+    /// (default `gap/2`). Below `gap/2` the walls step back by the difference for the stage,
+    /// so the grains' coats may reach into them (paper 001 §6.3 keeps the gap between grains
+    /// only: `wall_gap = 0`).
+    pub wall_gap: Option<f64>,
 }
 
 /// A scene that cannot be run, naming the field.
@@ -454,6 +462,23 @@ impl Scene {
             }
             if !(g.is_finite() && g >= 0.0) {
                 return Err(invalid("particles.gap", format!("= {g} must be ≥ 0")));
+            }
+        }
+        if let Some(w) = p.wall_gap {
+            let Some(g) = p.gap else {
+                return Err(invalid(
+                    "particles.wall_gap",
+                    "applies only with `particles.gap`",
+                ));
+            };
+            if !(w.is_finite() && (0.0..=0.5 * g).contains(&w)) {
+                return Err(invalid(
+                    "particles.wall_gap",
+                    format!(
+                        "= {w} is outside the allowed range [0, gap/2 = {}]",
+                        0.5 * g
+                    ),
+                ));
             }
         }
         let d_seed = sizes.d_max * scale;
@@ -711,6 +736,9 @@ impl Scene {
                     return Err(invalid(f("stall_epsilon"), format!("= {x} must be ≥ 0")));
                 }
             }
+            if s.wall_gap.is_some() && u.gap.is_none() {
+                return Err(invalid(f("wall_gap"), "applies only with `until.gap`"));
+            }
             if u.full_size.is_some() {
                 if s.growth != GrowthKind::Relative {
                     return Err(invalid(
@@ -759,6 +787,20 @@ impl Scene {
                         field,
                         "cannot be combined with packing_fraction or full_size",
                     ));
+                }
+                if let Some(w) = s.wall_gap {
+                    let Some(g) = u.gap else {
+                        return Err(invalid(f("wall_gap"), "applies only with `until.gap`"));
+                    };
+                    if !(w.is_finite() && (0.0..=0.5 * g).contains(&w)) {
+                        return Err(invalid(
+                            f("wall_gap"),
+                            format!(
+                                "= {w} is outside the allowed range [0, gap/2 = {}]",
+                                0.5 * g
+                            ),
+                        ));
+                    }
                 }
                 let gap = match u.gap {
                     Some(g) => {

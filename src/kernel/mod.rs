@@ -315,6 +315,15 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         &self.boundary
     }
 
+    /// Replaces the container between stages, e.g. by one whose walls stand further out
+    /// (a gap stage that keeps less than half the gap to the walls). Every particle must lie
+    /// inside the new container; the cell grid is rebuilt over it.
+    pub fn replace_boundary(&mut self, boundary: B) {
+        self.boundary = boundary;
+        let width = self.grid.min_width();
+        self.rebuild_grid(width);
+    }
+
     /// Event counts since the kernel was built.
     pub fn counters(&self) -> EventCounts {
         self.counters

@@ -4,7 +4,7 @@
 //! centres (walls respected, periodic axes wrapped); a candidate that overlaps an already
 //! placed sphere is rejected and drawn again. After `max_failures` consecutive rejections of
 //! one sphere the addition stops and reports how far it got. A minimum gap `Δd` is honoured
-//! by testing against diameters `d + Δd` (walls keep a clearance of `Δd/2`).
+//! by testing against diameters `d + Δd`; walls keep a clearance `wall_gap` (usually `Δd/2`).
 //!
 //! Overlap candidates come from a multi-level [`CellGrid`]. The paper (§4) rebuilds a single
 //! cell grid whenever the diameter being placed has halved, so that small spheres are not
@@ -43,6 +43,7 @@ pub fn rsa_spheres<B: Boundary, R: Rng>(
     boundary: &B,
     radii: &[f64],
     gap: f64,
+    wall_gap: f64,
     max_failures: u64,
     rng: &mut R,
 ) -> Result<Vec<Vec3>, RsaFailure> {
@@ -68,7 +69,7 @@ pub fn rsa_spheres<B: Boundary, R: Rng>(
         let r = radii[i];
         let mut failures = 0u64;
         loop {
-            let candidate = boundary.sample_center(r + 0.5 * gap, rng);
+            let candidate = boundary.sample_center(r + wall_gap, rng);
             let free =
                 candidate.is_some_and(|c| is_free(&grid, boundary, &centres, radii, c, r, gap));
             if free {

@@ -95,11 +95,12 @@ pub fn kolafa(phi: f64) -> f64 {
 /// Brute-force check of a packing's promised gap and containment, written for the tests and
 /// independent of the kernel and of `densepack::verify`: every pair (minimum image on periodic
 /// axes, all pairs) at least `(1 − 1e-9)·(r_i + r_j) + min_gap` apart, and every sphere at
-/// least `(1 − 1e-9)·r + min_gap/2` inside each wall (box faces that are not periodic, or the
+/// least `(1 − 1e-9)·r + wall_gap` inside each wall (box faces that are not periodic, or the
 /// cylinder's mantle and caps). Returns the smallest surface gap `|c_i − c_j| − r_i − r_j`.
 pub fn assert_gap_and_containment(packing: &Packing) -> f64 {
     use densepack::io::packing::ContainerRecord;
     let gap = packing.min_gap;
+    let wall_gap = packing.wall_gap();
     let balls: Vec<([f64; 3], f64)> = packing
         .particles
         .iter()
@@ -116,8 +117,8 @@ pub fn assert_gap_and_containment(packing: &Packing) -> f64 {
                     }
                     let inside = (c[k] - min[k]).min(max[k] - c[k]);
                     assert!(
-                        inside >= (1.0 - 1e-9) * r + 0.5 * gap,
-                        "sphere {i} (r = {r}) is {inside} from a wall on axis {k}, less than r + gap/2"
+                        inside >= (1.0 - 1e-9) * r + wall_gap,
+                        "sphere {i} (r = {r}) is {inside} from a wall on axis {k}, less than r + wall_gap"
                     );
                 }
             }
@@ -137,8 +138,8 @@ pub fn assert_gap_and_containment(packing: &Packing) -> f64 {
                 let axial = (c[2] - base_center[2]).min(base_center[2] + height - c[2]);
                 let inside = (radius - radial).min(axial);
                 assert!(
-                    inside >= (1.0 - 1e-9) * r + 0.5 * gap,
-                    "sphere {i} (r = {r}) is {inside} from the cylinder wall, less than r + gap/2"
+                    inside >= (1.0 - 1e-9) * r + wall_gap,
+                    "sphere {i} (r = {r}) is {inside} from the cylinder wall, less than r + wall_gap"
                 );
             }
             ([0.0; 3], [false; 3])
