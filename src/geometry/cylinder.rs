@@ -631,7 +631,7 @@ fn disk_point_nearest_axis(c: &Cylinder, d: &Disk) -> (Vector3<f64>, bool) {
             break;
         }
         let y = y_of(mid);
-        if y.0.hypot(y.1) > r {
+        if y.0 * y.0 + y.1 * y.1 > r * r {
             lo = mid;
         } else {
             hi = mid;

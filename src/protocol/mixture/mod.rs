@@ -450,9 +450,9 @@ fn for_each_lattice_vector(len: &Vec3, d: &Vec3, reach: f64, mut f: impl FnMut(V
     let mut axes = [[0.0f64; 8]; 3];
     let mut counts = [0usize; 3];
     for k in 0..3 {
-        // |d_k| ≤ L_k/2, so only n = 0 can qualify when reach ≤ L_k/2 (the usual case).
-        let m = if reach <= 0.5 * len[k] {
-            0
+        // |d_k| ≤ L_k/2: for reach < 3L_k/2 only n_k ∈ {−1, 0, 1} can qualify.
+        let m = if reach < 1.5 * len[k] {
+            1
         } else {
             (reach / len[k] + 0.5).floor() as i64
         };
