@@ -327,13 +327,14 @@ pub fn run_mixture(
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(scene.seed);
     let start = std::time::Instant::now();
     let mut extra = serde_json::Map::new();
-    let (rve, method) = match scene.mixture.method {
+    let method = scene.mixture.method.as_str();
+    let rve = match scene.mixture.method {
         MixtureMethod::Rsa => {
             let sizes = spec.sizes(scene.mixture.order);
             let out = rsa::rsa_mixture(&boundary, &sizes, &scene.rsa_limits(), &mut rng)?;
             extra.insert("candidates".into(), serde_json::json!(out.candidates));
             extra.insert("restarts".into(), serde_json::json!(out.restarts));
-            (out.rve, "rsa")
+            out.rve
         }
         MixtureMethod::Md => {
             let sizes = spec.sizes(crate::protocol::mixture::GenerationOrder::CylindersFirst);
@@ -341,7 +342,7 @@ pub fn run_mixture(
             let report = relax::relax(&mut rve, &scene.relax_settings())?;
             extra.insert("steps".into(), serde_json::json!(report.steps));
             extra.insert("relax".into(), serde_json::json!(report));
-            (rve, "md")
+            rve
         }
     };
     let seconds = start.elapsed().as_secs_f64();

@@ -10,10 +10,9 @@
 //! [`verify_convex`], which shares no code with `geometry::cylinder` either: a pair is
 //! accepted only with a *separating-plane certificate* for the two bodies eroded by `tol`
 //! times their radius — a direction `d` with `max_{x∈A} x·d < min_{y∈B} y·d`, evaluated with
-//! the closed-form support functions — found by alternating projections between the bodies
-//! (closed-form projections onto a ball and onto a cylinder, the product of a segment and a
-//! disk). A pair without a certificate is a violation, so the check can reject a valid
-//! packing but never accept an overlapping one.
+//! the closed-form support functions — found by GJK on the support maps (the simplex's
+//! nearest point by trying every face). A pair without a certificate is a violation, so the
+//! check can reject a valid packing but never accept an overlapping one.
 
 use crate::io::packing::{ContainerRecord, Packing, ParticleRecord};
 use nalgebra::Vector3;
@@ -347,29 +346,73 @@ impl Convex {
         }
     }
 
-    /// Nearest point of the body to `x` (a cylinder is a segment times a disk in orthogonal
-    /// coordinates, so its projection is the pair of projections).
-    fn project(&self, x: &Vector3<f64>) -> Vector3<f64> {
+    /// A point of the body maximising `x·d` (a base-disk rim point for a cylinder, the
+    /// base centre when `d` is along the axis).
+    fn support_point(&self, d: &Vector3<f64>) -> Vector3<f64> {
         match self {
             Convex::Ball { c, r } => {
-                let d = x - c;
                 let n = d.norm();
-                if n <= *r {
-                    *x
-                } else {
+                if n > 0.0 {
                     c + d * (r / n)
+                } else {
+                    *c
                 }
             }
             Convex::Rod { c, u, h, r } => {
-                let d = x - c;
-                let s = u.dot(&d);
-                let radial = d - u * s;
-                let rho = radial.norm();
-                let radial = if rho > *r { radial * (r / rho) } else { radial };
-                c + u * s.clamp(-h, *h) + radial
+                let along = u.dot(d);
+                let across = d - u * along;
+                let n = across.norm();
+                let end = if along >= 0.0 { u * *h } else { -u * *h };
+                if n > 0.0 {
+                    c + end + across * (r / n)
+                } else {
+                    c + end
+                }
             }
         }
     }
+}
+
+/// The point of the convex hull of `pts` (1 to 4 points) nearest to the origin, and the
+/// points spanning the face it lies on. Every non-empty subset is tried: its affine
+/// minimiser (normal equations of the barycentric weights) is kept when all weights are
+/// non-negative; the nearest kept point is the answer (it lies in the relative interior of
+/// some face, where the affine minimiser is that point).
+fn nearest_in_hull(pts: &[Vector3<f64>]) -> (Vector3<f64>, Vec<Vector3<f64>>) {
+    let mut best: Option<(f64, Vector3<f64>, Vec<Vector3<f64>>)> = None;
+    for mask in 1u32..(1 << pts.len()) {
+        let face: Vec<Vector3<f64>> = (0..pts.len())
+            .filter(|k| mask & (1 << k) != 0)
+            .map(|k| pts[k])
+            .collect();
+        let base = face[0];
+        let edges: Vec<Vector3<f64>> = face[1..].iter().map(|p| p - base).collect();
+        let m = edges.len();
+        // Gram system G μ = −Eᵀ base, at most 3×3.
+        let mut g = nalgebra::Matrix3::<f64>::identity();
+        let mut rhs = Vector3::zeros();
+        for i in 0..m {
+            for j in 0..m {
+                g[(i, j)] = edges[i].dot(&edges[j]);
+            }
+            rhs[i] = -edges[i].dot(&base);
+        }
+        let Some(inv) = g.try_inverse() else {
+            continue;
+        };
+        let mu = inv * rhs;
+        let weight0 = 1.0 - (0..m).map(|i| mu[i]).sum::<f64>();
+        if weight0 < 0.0 || (0..m).any(|i| mu[i] < 0.0) || !weight0.is_finite() {
+            continue;
+        }
+        let point = base + (0..m).map(|i| edges[i] * mu[i]).sum::<Vector3<f64>>();
+        let d = point.norm_squared();
+        if best.as_ref().is_none_or(|b| d < b.0) {
+            best = Some((d, point, face));
+        }
+    }
+    let (_, point, face) = best.expect("a single point is always its own nearest point");
+    (point, face)
 }
 
 /// Outcome of one pair.
@@ -383,8 +426,8 @@ enum PairCheck {
     Undecided,
 }
 
-/// Separation of the eroded bodies `a`, `b` by alternating projections (see the module
-/// documentation); `a_full`, `b_full` give the reported gap.
+/// Separation of the eroded bodies `a`, `b` (see the module documentation); `a_full`,
+/// `b_full` give the reported gap.
 fn check_pair(a_full: &Convex, b_full: &Convex) -> PairCheck {
     let a = a_full.eroded(TOLERANCE * a_full.radius());
     let b = b_full.eroded(TOLERANCE * b_full.radius());
@@ -397,21 +440,33 @@ fn check_pair(a_full: &Convex, b_full: &Convex) -> PairCheck {
             PairCheck::Overlapping
         };
     }
-    let mut x = 0.5 * (a.center() + b.center());
-    for _ in 0..100_000 {
-        let pa = a.project(&x);
-        let pb = b.project(&pa);
-        let d = pb - pa;
-        let n = d.norm();
-        if n <= 1e-15 * size {
+    // GJK on the Minkowski difference A − B: `v` is the point of the current simplex nearest
+    // to the origin; `−v` is the candidate direction from A to B.
+    let support = |d: &Vector3<f64>| a.support_point(d) - b.support_point(&-d);
+    let mut v = a.center() - b.center();
+    let mut simplex: Vec<Vector3<f64>> = Vec::with_capacity(4);
+    for _ in 0..1000 {
+        let n = v.norm();
+        if n <= 1e-14 * size {
             return PairCheck::Overlapping;
         }
-        let dir = d / n;
-        // The plane through the direction pa → pb separates iff min_B − max_A > 0.
+        let dir = -v / n;
+        // The plane normal to `dir` separates iff min_B − max_A > 0.
         if -b.support(&-dir) - a.support(&dir) > 0.0 {
             return PairCheck::Separated(-b_full.support(&-dir) - a_full.support(&dir));
         }
-        x = pb;
+        let w = support(&-v);
+        if n * n - v.dot(&w) <= 1e-15 * size * size {
+            // No progress: v is as near as floating point gets without a certificate.
+            return PairCheck::Undecided;
+        }
+        simplex.push(w);
+        let (nearest, face) = nearest_in_hull(&simplex);
+        if face.len() == 4 {
+            return PairCheck::Overlapping;
+        }
+        v = nearest;
+        simplex = face;
     }
     PairCheck::Undecided
 }

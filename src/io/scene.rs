@@ -549,6 +549,16 @@ pub enum MixtureMethod {
     Md,
 }
 
+impl MixtureMethod {
+    /// The scene name of the method.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            MixtureMethod::Rsa => "rsa",
+            MixtureMethod::Md => "md",
+        }
+    }
+}
+
 /// The `[mixture]` table.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
