@@ -19,8 +19,13 @@ use std::time::{Duration, Instant};
 
 fn main() {
     let mut args = std::env::args().skip(1);
-    let (mut only, mut counts, mut runs, mut out, mut limit) =
-        (None::<String>, vec![10usize, 20, 30, 40, 50], 5usize, None::<String>, 10.0f64);
+    let (mut only, mut counts, mut runs, mut out, mut limit) = (
+        None::<String>,
+        vec![10usize, 20, 30, 40, 50],
+        5usize,
+        None::<String>,
+        10.0f64,
+    );
     let mut cells: Option<Vec<(f64, f64)>> = None;
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -119,7 +124,8 @@ fn generate(method: &str, spec: &MixtureSpec, seed: u64, limit: f64) -> Result<f
         rve
     };
     let seconds = start.elapsed().as_secs_f64();
-    let packing = densepack::run::mixture_packing(&rve, seed, seconds, method, serde_json::Map::new());
+    let packing =
+        densepack::run::mixture_packing(&rve, seed, seconds, method, serde_json::Map::new());
     let v = verify(&packing);
     if !v.ok() {
         return Err(format!("verification: {:?}", v.violations));
@@ -187,7 +193,10 @@ fn run_table(
                 let mut failed = 0;
                 let mut bound = false;
                 for run in 0..runs {
-                    let seed = 1_000_003 * n as u64 + 10_007 * (ri * 16 + ci) as u64 + 101 * ai as u64 + run as u64;
+                    let seed = 1_000_003 * n as u64
+                        + 10_007 * (ri * 16 + ci) as u64
+                        + 101 * ai as u64
+                        + run as u64;
                     match generate(method, &spec, seed, limit) {
                         Ok(t) => times.push(t),
                         Err(e) if e == "bound" => {
@@ -205,7 +214,11 @@ fn run_table(
                 } else {
                     format!("{:.2e}", times.iter().sum::<f64>() / times.len() as f64)
                 };
-                let fail = if failed > 0 { format!(" {failed}✗") } else { String::new() };
+                let fail = if failed > 0 {
+                    format!(" {failed}✗")
+                } else {
+                    String::new()
+                };
                 write!(row, " {paper} / {ours}{fail} |").unwrap();
                 eprint!(".");
             }

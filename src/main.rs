@@ -137,7 +137,8 @@ fn run_mixture(scene: &MixtureScene, out: &std::path::Path, quiet: bool) -> Exit
         Ok(outcome) => {
             let s = &outcome.packing.stats;
             if !quiet {
-                let fraction = |k: &str| s.extra.get(k).and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
+                let fraction =
+                    |k: &str| s.extra.get(k).and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
                 println!(
                     "bodies {}  f_s {:.6}  f_c {:.6}  total {:.6}  method {}  wall {:.3} s  \
                      overlap check: ok (min gap {:.3e})",

@@ -543,7 +543,10 @@ pub fn verify_convex(packing: &Packing) -> Verification {
         };
         let c = body.center();
         if !ok || c.iter().any(|x| !x.is_finite()) {
-            violate(&mut out, format!("particle {i}: non-finite or non-positive size"));
+            violate(
+                &mut out,
+                format!("particle {i}: non-finite or non-positive size"),
+            );
             continue;
         }
         if (0..3).any(|k| !(c[k] >= lo[k] && c[k] <= lo[k] + len[k])) {
@@ -556,8 +559,9 @@ pub fn verify_convex(packing: &Packing) -> Verification {
     }
     out.packing_fraction =
         bodies.iter().map(|(_, b)| b.volume()).sum::<f64>() / (len.x * len.y * len.z);
-    let record = |out: &mut Verification, i: usize, j: usize, a: &Convex, b: &Convex| {
-        match check_pair(a, b) {
+    let record =
+        |out: &mut Verification, i: usize, j: usize, a: &Convex, b: &Convex| match check_pair(a, b)
+        {
             PairCheck::Separated(gap) => {
                 if out.min_pair_gap.is_none_or(|m| gap < m) {
                     out.min_pair_gap = Some(gap);
@@ -574,8 +578,7 @@ pub fn verify_convex(packing: &Packing) -> Verification {
                 out,
                 format!("particles {i} and {j}: separation could not be certified"),
             ),
-        }
-    };
+        };
     // Lattice shifts t with |d + t| < reach, d a minimum-image separation.
     let shifts = |d: &Vector3<f64>, reach: f64| -> Vec<Vector3<f64>> {
         let m: Vec<i64> = (0..3)

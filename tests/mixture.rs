@@ -30,8 +30,17 @@ fn spec(fs: f64, fc: f64, n: usize, a: f64) -> MixtureSpec {
 }
 
 fn assert_verified(rve: &Rve) {
-    assert!(first_intersection(rve).is_none(), "exact tests find an intersection");
-    let v = verify(&mixture_packing(rve, 0, 0.0, "test", serde_json::Map::new()));
+    assert!(
+        first_intersection(rve).is_none(),
+        "exact tests find an intersection"
+    );
+    let v = verify(&mixture_packing(
+        rve,
+        0,
+        0.0,
+        "test",
+        serde_json::Map::new(),
+    ));
     assert!(v.ok(), "independent check: {:?}", v.violations);
 }
 
@@ -45,11 +54,19 @@ fn rsa_reaches_the_requested_fractions_in_every_order() {
         let s = spec(0.1, 0.15, 30, 5.0);
         s.validate().unwrap();
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(7);
-        let out = rsa_mixture(&s.boundary(), &s.sizes(order), &RsaLimits::default(), &mut rng)
-            .unwrap_or_else(|e| panic!("{order:?}: {e}"));
+        let out = rsa_mixture(
+            &s.boundary(),
+            &s.sizes(order),
+            &RsaLimits::default(),
+            &mut rng,
+        )
+        .unwrap_or_else(|e| panic!("{order:?}: {e}"));
         let (fs, fc) = out.rve.fractions();
         // Algorithm 5 steps 1–2 give the fractions exactly (up to rounding).
-        assert!((fs - 0.1).abs() < 1e-12 && (fc - 0.15).abs() < 1e-12, "{fs} {fc}");
+        assert!(
+            (fs - 0.1).abs() < 1e-12 && (fc - 0.15).abs() < 1e-12,
+            "{fs} {fc}"
+        );
         let cylinders: Vec<_> = out
             .rve
             .bodies
@@ -65,8 +82,11 @@ fn rsa_reaches_the_requested_fractions_in_every_order() {
         }
         if order == GenerationOrder::Interleaved {
             // Kinds alternate (equal counts).
-            assert!(out.rve.bodies.windows(2).all(|w| std::mem::discriminant(&w[0])
-                != std::mem::discriminant(&w[1])));
+            assert!(out
+                .rve
+                .bodies
+                .windows(2)
+                .all(|w| std::mem::discriminant(&w[0]) != std::mem::discriminant(&w[1])));
         }
         assert_verified(&out.rve);
     }
@@ -87,14 +107,27 @@ fn images_across_faces_edges_and_corners_are_seen() {
     let edge = Rve {
         boundary: boundary.clone(),
         bodies: vec![
-            Shape::Cylinder(Cylinder::new(V::new(0.5, 0.03, 0.98), V::new(0.3, 0.0, 0.0), 0.05)),
+            Shape::Cylinder(Cylinder::new(
+                V::new(0.5, 0.03, 0.98),
+                V::new(0.3, 0.0, 0.0),
+                0.05,
+            )),
             Shape::Sphere(Sphere::new(V::new(0.6, 0.97, 0.02), 0.05)),
         ],
     };
     for rve in [corner, edge] {
         assert!(first_intersection(&rve).is_some());
-        let v = verify(&mixture_packing(&rve, 0, 0.0, "test", serde_json::Map::new()));
-        assert!(!v.ok(), "the independent check must reject the image overlap");
+        let v = verify(&mixture_packing(
+            &rve,
+            0,
+            0.0,
+            "test",
+            serde_json::Map::new(),
+        ));
+        assert!(
+            !v.ok(),
+            "the independent check must reject the image overlap"
+        );
         // Moved to the middle of the box they are far apart: both accept.
         let mut apart = rve.clone();
         apart.bodies[1] = apart.bodies[1].translated(V::new(-0.45, -0.45, 0.45));
@@ -110,7 +143,14 @@ fn images_across_faces_edges_and_corners_are_seen() {
         ))],
     };
     assert!(first_intersection(&own).is_some());
-    assert!(!verify(&mixture_packing(&own, 0, 0.0, "test", serde_json::Map::new())).ok());
+    assert!(!verify(&mixture_packing(
+        &own,
+        0,
+        0.0,
+        "test",
+        serde_json::Map::new()
+    ))
+    .ok());
 }
 
 #[test]
@@ -137,15 +177,25 @@ fn relaxer_makes_a_fraction_rsa_cannot_reach_intersection_free() {
         }
         other => panic!("RSA was expected to fail: {other:?}"),
     }
-    let mut rve = random_rve(&s.boundary(), &sizes, &mut Xoshiro256PlusPlus::seed_from_u64(3));
-    assert!(first_intersection(&rve).is_some(), "the start must intersect");
+    let mut rve = random_rve(
+        &s.boundary(),
+        &sizes,
+        &mut Xoshiro256PlusPlus::seed_from_u64(3),
+    );
+    assert!(
+        first_intersection(&rve).is_some(),
+        "the start must intersect"
+    );
     let report = relax(&mut rve, &RelaxSettings::default()).unwrap();
     assert!(report.initial_contacts > 50, "{report:?}");
     let (fs, fc) = rve.fractions();
     assert!((fs - 0.30).abs() < 1e-12 && (fc - 0.25).abs() < 1e-12);
     for b in &rve.bodies {
         if let Shape::Cylinder(c) = b {
-            assert!((c.aspect_ratio() - 5.0).abs() < 1e-9, "rotation kept the length");
+            assert!(
+                (c.aspect_ratio() - 5.0).abs() < 1e-9,
+                "rotation kept the length"
+            );
         }
     }
     assert_verified(&rve);
@@ -160,19 +210,71 @@ fn relaxer_separates_each_two_body_case() {
     let sph = |c: [f64; 3], r: f64| Shape::Sphere(Sphere::new(V::from(c) + V::repeat(5.0), r));
     let z = [0.0, 0.0, 2.0];
     let cases: Vec<(&str, Shape, Shape)> = vec![
-        ("fig15 two spheres", sph([0.0; 3], 1.0), sph([1.5, 0.0, 0.0], 0.6)),
-        ("fig16 sc2", cyl([0.0; 3], z, 0.5), sph([0.9, 0.0, 0.0], 0.5)),
-        ("fig17 sc2 off-centre", cyl([0.0; 3], z, 0.5), sph([0.6, 0.6, 1.9], 0.5)),
-        ("fig18/19 sc3", cyl([0.0; 3], z, 0.5), sph([0.0, 0.1, 2.3], 0.5)),
-        ("fig20 sc4", cyl([0.0; 3], z, 0.5), sph([0.8, 0.0, 2.2], 0.5)),
-        ("sc1", cyl([0.0; 3], [0.0, 0.0, 0.3], 0.2), sph([0.0, 0.0, 0.1], 1.0)),
-        ("fig21 cc1", cyl([0.0; 3], [2.0, 0.0, 0.0], 0.5), cyl([0.0, 0.0, 0.9], [0.0, 2.0, 0.0], 0.5)),
-        ("fig22/23 cc1", cyl([0.0; 3], [2.0, 0.3, 0.1], 0.5), cyl([0.2, -0.1, 0.8], [0.4, 2.0, -0.3], 0.4)),
-        ("fig24 cd1", cyl([0.0; 3], z, 0.5), cyl([0.0, 0.0, 2.4], [2.0, 0.0, 0.0], 0.5)),
-        ("fig25 parallel", cyl([0.0; 3], z, 0.5), cyl([0.9, 0.0, 0.3], [0.0, 0.0, -2.0], 0.5)),
-        ("fig26/27 cd1", cyl([0.0; 3], z, 0.5), cyl([0.3, 0.7, 2.5], [2.0, 0.2, 0.6], 0.5)),
-        ("fig28 d1", cyl([0.0; 3], [0.0, 0.0, 1.0], 1.0), cyl([1.5, 0.0, 1.2], [1.0, 0.0, 0.0], 0.3)),
-        ("fig29 crossing axes", cyl([0.0; 3], z, 0.5), cyl([0.0; 3], [2.0, 0.0, 0.0], 0.5)),
+        (
+            "fig15 two spheres",
+            sph([0.0; 3], 1.0),
+            sph([1.5, 0.0, 0.0], 0.6),
+        ),
+        (
+            "fig16 sc2",
+            cyl([0.0; 3], z, 0.5),
+            sph([0.9, 0.0, 0.0], 0.5),
+        ),
+        (
+            "fig17 sc2 off-centre",
+            cyl([0.0; 3], z, 0.5),
+            sph([0.6, 0.6, 1.9], 0.5),
+        ),
+        (
+            "fig18/19 sc3",
+            cyl([0.0; 3], z, 0.5),
+            sph([0.0, 0.1, 2.3], 0.5),
+        ),
+        (
+            "fig20 sc4",
+            cyl([0.0; 3], z, 0.5),
+            sph([0.8, 0.0, 2.2], 0.5),
+        ),
+        (
+            "sc1",
+            cyl([0.0; 3], [0.0, 0.0, 0.3], 0.2),
+            sph([0.0, 0.0, 0.1], 1.0),
+        ),
+        (
+            "fig21 cc1",
+            cyl([0.0; 3], [2.0, 0.0, 0.0], 0.5),
+            cyl([0.0, 0.0, 0.9], [0.0, 2.0, 0.0], 0.5),
+        ),
+        (
+            "fig22/23 cc1",
+            cyl([0.0; 3], [2.0, 0.3, 0.1], 0.5),
+            cyl([0.2, -0.1, 0.8], [0.4, 2.0, -0.3], 0.4),
+        ),
+        (
+            "fig24 cd1",
+            cyl([0.0; 3], z, 0.5),
+            cyl([0.0, 0.0, 2.4], [2.0, 0.0, 0.0], 0.5),
+        ),
+        (
+            "fig25 parallel",
+            cyl([0.0; 3], z, 0.5),
+            cyl([0.9, 0.0, 0.3], [0.0, 0.0, -2.0], 0.5),
+        ),
+        (
+            "fig26/27 cd1",
+            cyl([0.0; 3], z, 0.5),
+            cyl([0.3, 0.7, 2.5], [2.0, 0.2, 0.6], 0.5),
+        ),
+        (
+            "fig28 d1",
+            cyl([0.0; 3], [0.0, 0.0, 1.0], 1.0),
+            cyl([1.5, 0.0, 1.2], [1.0, 0.0, 0.0], 0.3),
+        ),
+        (
+            "fig29 crossing axes",
+            cyl([0.0; 3], z, 0.5),
+            cyl([0.0; 3], [2.0, 0.0, 0.0], 0.5),
+        ),
     ];
     for (name, a, b) in cases {
         assert!(overlaps(&a, &b), "{name}: must start intersecting");
@@ -206,7 +308,11 @@ fn same_seed_same_configuration() {
     assert_eq!(run_rsa(11), run_rsa(11));
     assert_ne!(run_rsa(11), run_rsa(12));
     let run_md = |seed| {
-        let mut rve = random_rve(&s.boundary(), &sizes, &mut Xoshiro256PlusPlus::seed_from_u64(seed));
+        let mut rve = random_rve(
+            &s.boundary(),
+            &sizes,
+            &mut Xoshiro256PlusPlus::seed_from_u64(seed),
+        );
         let report = relax(&mut rve, &RelaxSettings::default()).unwrap();
         (rve, report.steps)
     };
@@ -239,17 +345,35 @@ fn cylinder_count_bound_and_bad_inputs_are_clear_errors() {
         other => panic!("expected an invalid field, got {other:?}"),
     };
     let cases = [
-        ("sphere_fraction = 0.1", "sphere_fraction = -0.1", "mixture.sphere_fraction"),
-        ("cylinder_fraction = 0.1", "cylinder_fraction = 1.5", "mixture.cylinder_fraction"),
-        ("aspect_ratio = 3.0", "aspect_ratio = 0.0", "mixture.aspect_ratio"),
+        (
+            "sphere_fraction = 0.1",
+            "sphere_fraction = -0.1",
+            "mixture.sphere_fraction",
+        ),
+        (
+            "cylinder_fraction = 0.1",
+            "cylinder_fraction = 1.5",
+            "mixture.cylinder_fraction",
+        ),
+        (
+            "aspect_ratio = 3.0",
+            "aspect_ratio = 0.0",
+            "mixture.aspect_ratio",
+        ),
         ("cylinders = 10", "cylinders = 0", "mixture.cylinders"),
-        ("aspect_ratio = 3.0", "aspect_ratio = 10.0", "mixture.cylinders"),
+        (
+            "aspect_ratio = 3.0",
+            "aspect_ratio = 10.0",
+            "mixture.cylinders",
+        ),
     ];
     for (from, to, field) in cases {
         let (got, message) = field_of(scene(&base.replace(from, to)));
         assert_eq!(got, field, "{to}: {message}");
     }
-    let (got, _) = field_of(scene(&format!("{base}\nmethod = \"md\"\n[mixture.relax]\ndamping = -1.0")));
+    let (got, _) = field_of(scene(&format!(
+        "{base}\nmethod = \"md\"\n[mixture.relax]\ndamping = -1.0"
+    )));
     assert_eq!(got, "mixture.relax.damping");
     // Unknown keys are parse errors naming the key.
     match MixtureScene::from_toml(&scene(&format!("{base}\nfraction = 0.3"))) {
@@ -273,5 +397,8 @@ fn relaxer_gives_up_with_a_clear_message() {
     let e = relax(&mut rve, &settings).unwrap_err();
     assert!(e.contacts > 0 && e.steps == 5);
     let text = e.to_string();
-    assert!(text.contains("gave up after 5 steps") && text.contains("intersections remain"), "{text}");
+    assert!(
+        text.contains("gave up after 5 steps") && text.contains("intersections remain"),
+        "{text}"
+    );
 }

@@ -738,7 +738,8 @@ pub enum AnyScene {
 impl AnyScene {
     /// Parses and validates either kind of scene.
     pub fn from_toml(text: &str) -> Result<Self, SceneError> {
-        let table: toml::Table = toml::from_str(text).map_err(|e| SceneError::Parse(e.to_string()))?;
+        let table: toml::Table =
+            toml::from_str(text).map_err(|e| SceneError::Parse(e.to_string()))?;
         if table.contains_key("mixture") {
             Ok(AnyScene::Mixture(Box::new(MixtureScene::from_toml(text)?)))
         } else {

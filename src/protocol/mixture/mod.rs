@@ -410,12 +410,7 @@ impl PeriodicPairs {
     /// that the image `bodies[j]` moved by `offset` has a bounding sphere meeting that of
     /// `probe` (every face, edge and corner image; several images of one body when it is
     /// long enough).
-    pub fn for_each_image(
-        &self,
-        bodies: &[Shape],
-        probe: &Shape,
-        mut f: impl FnMut(usize, Vec3),
-    ) {
+    pub fn for_each_image(&self, bodies: &[Shape], probe: &Shape, mut f: impl FnMut(usize, Vec3)) {
         let p = probe.center();
         let rp = probe.bounding_radius();
         self.grid

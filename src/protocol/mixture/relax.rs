@@ -295,7 +295,8 @@ pub fn relax(rve: &mut Rve, settings: &RelaxSettings) -> Result<RelaxReport, Rel
         .fold(f64::INFINITY, f64::min);
     let dt = settings.time_step;
     let scale = 1.0 + settings.margin;
-    let inflate = |bodies: &[Shape]| -> Vec<Shape> { bodies.iter().map(|b| b.scaled(scale)).collect() };
+    let inflate =
+        |bodies: &[Shape]| -> Vec<Shape> { bodies.iter().map(|b| b.scaled(scale)).collect() };
     let mut inflated = inflate(&rve.bodies);
     let max_radius = inflated
         .iter()
@@ -379,7 +380,8 @@ pub fn relax(rve: &mut Rve, settings: &RelaxSettings) -> Result<RelaxReport, Rel
         steps += 1;
         // Thermostat coefficients from the kinetic energy at the start of the step.
         let e_kin = kinetic(&vel, &omega);
-        let gamma_ber = settings.berendsen_rate * (e_kin - 0.5 * dof * settings.berendsen_temperature);
+        let gamma_ber =
+            settings.berendsen_rate * (e_kin - 0.5 * dof * settings.berendsen_temperature);
         if nose_hoover.is_some() {
             gamma_nh += settings.nose_hoover_rate
                 * (e_kin - 0.5 * dof * settings.nose_hoover_temperature)
@@ -425,7 +427,8 @@ pub fn relax(rve: &mut Rve, settings: &RelaxSettings) -> Result<RelaxReport, Rel
             }
         }
         let e_kin = kinetic(&vel, &omega);
-        let gamma_ber = settings.berendsen_rate * (e_kin - 0.5 * dof * settings.berendsen_temperature);
+        let gamma_ber =
+            settings.berendsen_rate * (e_kin - 0.5 * dof * settings.berendsen_temperature);
         let damp = (-(settings.damping + gamma_ber + gamma_nh) * 0.5 * dt).exp();
         for i in 0..n {
             vel[i] *= damp;
