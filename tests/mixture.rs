@@ -402,3 +402,75 @@ fn relaxer_gives_up_with_a_clear_message() {
         "{text}"
     );
 }
+
+#[test]
+fn cli_runs_the_55_percent_scene_and_rejects_bad_ones() {
+    use densepack::io::packing::{Packing, ParticleRecord};
+    let dir = std::env::temp_dir().join(format!("densepack-mixture-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let bin = env!("CARGO_BIN_EXE_densepack");
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/examples/scenes/mixture_55.toml"
+    );
+    let out = dir.join("m55.json");
+    let run = std::process::Command::new(bin)
+        .args(["run", scene, "--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let mut packing = Packing::read(&out).unwrap();
+    assert!((packing.stats.packing_fraction - 0.55).abs() < 1e-12);
+    let cylinders = packing
+        .particles
+        .iter()
+        .filter(|p| matches!(p, ParticleRecord::Cylinder { .. }))
+        .count();
+    assert_eq!((cylinders, packing.particles.len()), (50, 100));
+    let check = std::process::Command::new(bin)
+        .args(["verify", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(check.status.success());
+    // Put the first cylinder onto the second: `verify` must fail.
+    let second_center = match &packing.particles[1] {
+        ParticleRecord::Cylinder { center, .. } => *center,
+        other => panic!("cylinders come first: {other:?}"),
+    };
+    if let ParticleRecord::Cylinder { center, .. } = &mut packing.particles[0] {
+        *center = second_center;
+    }
+    let bad = dir.join("bad.json");
+    packing.write(&bad).unwrap();
+    let check = std::process::Command::new(bin)
+        .args(["verify", bad.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(check.status.code(), Some(1));
+    // The cylinder count bound: exit code 2, the field named, nothing written.
+    let scene = dir.join("bound.toml");
+    std::fs::write(
+        &scene,
+        "seed = 1\n[mixture]\nsphere_fraction = 0.05\ncylinder_fraction = 0.45\n\
+         spheres = 10\ncylinders = 10\naspect_ratio = 5.0\n",
+    )
+    .unwrap();
+    let out = dir.join("never.json");
+    let run = std::process::Command::new(bin)
+        .args([
+            "run",
+            scene.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&run.stderr).contains("mixture.cylinders"));
+    assert!(!out.exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
