@@ -371,6 +371,8 @@ fn cylinder_count_bound_and_bad_inputs_are_clear_errors() {
         let (got, message) = field_of(scene(&base.replace(from, to)));
         assert_eq!(got, field, "{to}: {message}");
     }
+    let (got, _) = field_of(scene(&base.replace("aspect_ratio = 3.0", "")));
+    assert_eq!(got, "mixture.aspect_ratio");
     let (got, _) = field_of(scene(&format!(
         "{base}\nmethod = \"md\"\n[mixture.relax]\ndamping = -1.0"
     )));

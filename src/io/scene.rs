@@ -575,8 +575,7 @@ pub struct MixtureSection {
     /// `n_c`.
     pub cylinders: usize,
     /// `a = ‖l‖/r` (required when there are cylinders).
-    #[serde(default = "default_aspect_ratio")]
-    pub aspect_ratio: f64,
+    pub aspect_ratio: Option<f64>,
     /// Edge of the periodic cube.
     #[serde(default = "default_box_size")]
     pub box_size: f64,
@@ -594,10 +593,6 @@ pub struct MixtureSection {
     /// Relaxer settings (method `md`).
     #[serde(default)]
     pub relax: RelaxSection,
-}
-
-fn default_aspect_ratio() -> f64 {
-    1.0
 }
 
 fn default_box_size() -> f64 {
@@ -660,7 +655,7 @@ impl MixtureScene {
             cylinder_fraction: m.cylinder_fraction,
             spheres: m.spheres,
             cylinders: m.cylinders,
-            aspect_ratio: m.aspect_ratio,
+            aspect_ratio: m.aspect_ratio.unwrap_or(f64::NAN),
             box_size: m.box_size,
         }
     }
@@ -712,6 +707,12 @@ impl MixtureScene {
             }
             bound => invalid("mixture.cylinders", bound.to_string()),
         };
+        if self.mixture.cylinders > 0 && self.mixture.aspect_ratio.is_none() {
+            return Err(invalid(
+                "mixture.aspect_ratio",
+                "is required when cylinders > 0 (a = half-length / radius, > 0)",
+            ));
+        }
         self.spec().validate().map_err(to_scene)?;
         if let Some(t) = self.mixture.time_limit_seconds {
             positive("mixture.time_limit_seconds", t)?;

@@ -143,11 +143,16 @@ impl RelaxSettings {
                 ),
             });
         }
-        if self.max_steps == 0 || self.stagnation_steps == 0 {
-            return Err(MixtureError::Invalid {
-                field: "mixture.relax.max_steps".into(),
-                message: "max_steps and stagnation_steps must be ≥ 1".into(),
-            });
+        for (field, x) in [
+            ("max_steps", self.max_steps),
+            ("stagnation_steps", self.stagnation_steps),
+        ] {
+            if x == 0 {
+                return Err(MixtureError::Invalid {
+                    field: format!("mixture.relax.{field}"),
+                    message: "0 must be ≥ 1".into(),
+                });
+            }
         }
         Ok(())
     }
