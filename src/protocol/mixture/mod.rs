@@ -425,6 +425,33 @@ impl PeriodicPairs {
             });
     }
 
+    /// Whether `hit(j, offset)` holds for some image found by [`Self::for_each_image`];
+    /// stops testing at the first one (RSA rejections).
+    pub fn any_image(
+        &self,
+        bodies: &[Shape],
+        probe: &Shape,
+        mut hit: impl FnMut(usize, Vec3) -> bool,
+    ) -> bool {
+        let p = probe.center();
+        let rp = probe.bounding_radius();
+        let mut found = false;
+        self.grid
+            .for_each_within(0, &p, rp + self.max_bounding_radius, |j| {
+                if found {
+                    return;
+                }
+                let reach = rp + bodies[j].bounding_radius();
+                let dr = bodies[j].center() - p;
+                let mut near = dr;
+                self.boundary.minimum_image(&mut near);
+                for_each_lattice_vector(&self.boundary.len, &near, reach, |shift| {
+                    found = found || hit(j, near - dr + shift);
+                });
+            });
+        found
+    }
+
     /// Lattice vectors `t ≠ 0`, one of each pair `±t`, by which a body of bounding radius
     /// `radius` could meet its own image.
     pub fn self_image_offsets(&self, radius: f64, mut f: impl FnMut(Vec3)) {

@@ -152,12 +152,10 @@ pub fn rsa_mixture<R: Rng>(
                     Vec3::z()
                 };
                 let candidate = size.at(center, direction);
-                let mut free = !meets_own_image(&pairs, &candidate);
-                if free {
-                    pairs.for_each_image(&bodies, &candidate, |j, offset| {
-                        free = free && !overlaps(&candidate, &bodies[j].translated(offset));
+                let free = !meets_own_image(&pairs, &candidate)
+                    && !pairs.any_image(&bodies, &candidate, |j, offset| {
+                        overlaps(&candidate, &bodies[j].translated(offset))
                     });
-                }
                 if free {
                     pairs.insert(bodies.len(), &center);
                     bodies.push(candidate);
