@@ -407,12 +407,18 @@ impl PeriodicPairs {
     }
 
     /// Calls `f(j, offset)` for every registered body `j` and lattice vector `offset` such
-    /// that the image `bodies[j]` moved by `offset` has a bounding sphere meeting that of
-    /// `probe` (every face, edge and corner image; several images of one body when it is
-    /// long enough).
-    pub fn for_each_image(&self, bodies: &[Shape], probe: &Shape, mut f: impl FnMut(usize, Vec3)) {
+    /// that the image `bodies[j]` moved by `offset` has a bounding sphere within `skin` of
+    /// that of `probe` (every face, edge and corner image; several images of one body when
+    /// it is long enough).
+    pub fn for_each_image(
+        &self,
+        bodies: &[Shape],
+        probe: &Shape,
+        skin: f64,
+        mut f: impl FnMut(usize, Vec3),
+    ) {
         let p = probe.center();
-        let rp = probe.bounding_radius();
+        let rp = probe.bounding_radius() + skin;
         self.grid
             .for_each_within(0, &p, rp + self.max_bounding_radius, |j| {
                 let reach = rp + bodies[j].bounding_radius();
@@ -425,8 +431,8 @@ impl PeriodicPairs {
             });
     }
 
-    /// Whether `hit(j, offset)` holds for some image found by [`Self::for_each_image`];
-    /// stops testing at the first one (RSA rejections).
+    /// Whether `hit(j, offset)` holds for some image found by [`Self::for_each_image`]
+    /// (no skin); stops testing at the first one (RSA rejections).
     pub fn any_image(
         &self,
         bodies: &[Shape],
@@ -517,7 +523,7 @@ pub fn first_intersection(rve: &Rve) -> Option<(usize, usize, Vec3)> {
                 found = Some((i, i, t));
             }
         });
-        pairs.for_each_image(&rve.bodies, b, |j, t| {
+        pairs.for_each_image(&rve.bodies, b, 0.0, |j, t| {
             if j > i && found.is_none() && overlaps(b, &rve.bodies[j].translated(t)) {
                 found = Some((i, j, t));
             }

@@ -30,6 +30,9 @@
 //!   `|ω|Δt` (Rodrigues), so `‖l‖` is conserved. A displacement cap (`max_displacement ℓ`
 //!   per step for centres and cylinder ends) guards the first steps of a heavily
 //!   intersecting start.
+//! * **Pairs.** A Verlet list of candidate pairs (every periodic image whose bounding
+//!   sphere is within a skin of one smallest radius), built through the cell grid and
+//!   rebuilt once a centre has moved half the skin.
 //! * **Stop.** Only when the exact tests find no intersection of the bodies inflated by the
 //!   factor `1 + margin` (so the real bodies keep a gap of about `margin` times their size);
 //!   a final exact check of the real bodies confirms it. After `max_steps` steps (or the
@@ -242,35 +245,73 @@ impl Load {
         }
     }
 
-    /// Table I forces of the inflated bodies, with prefactor `kappa`.
-    fn compute(&mut self, pairs: &PeriodicPairs, inflated: &[Shape], kappa: f64) {
+    /// Table I forces of the inflated bodies over the candidate pairs, with prefactor
+    /// `kappa`.
+    fn compute(&mut self, near: &NearPairs, inflated: &[Shape], kappa: f64) {
         self.force.iter_mut().for_each(|f| *f = Vec3::zeros());
         self.torque.iter_mut().for_each(|t| *t = Vec3::zeros());
         self.energy = 0.0;
         self.contacts = 0;
         self.max_depth = 0.0;
+        for &(i, j, offset) in &near.pairs {
+            let (a, b) = (&inflated[i], inflated[j].translated(offset));
+            let (ci, cj) = (a.center(), b.center());
+            for_each_contact(a, &b, |c| {
+                let f = c.normal * (kappa * c.depth);
+                self.force[j] += f;
+                self.torque[j] += (c.point - cj).cross(&f);
+                self.force[i] -= f;
+                self.torque[i] -= (c.point - ci).cross(&f);
+                self.energy += c.depth * c.depth;
+                self.contacts += 1;
+                self.max_depth = self.max_depth.max(c.depth);
+            });
+        }
+    }
+}
+
+/// Verlet list: the pairs `(i, j, offset)` (`j ≥ i`; `j = i` for a body and its own
+/// image) whose bounding spheres were within `skin` when it was built, with the centres at
+/// that time. Centres are not wrapped between rebuilds, so the lattice offsets stay valid;
+/// the list is rebuilt (centres wrapped, cell grid updated) once a centre has moved more than
+/// `skin/2`, before any pair can have come into reach unlisted.
+struct NearPairs {
+    pairs: Vec<(usize, usize, Vec3)>,
+    anchors: Vec<Vec3>,
+    skin: f64,
+}
+
+impl NearPairs {
+    fn build(rve: &mut Rve, grid: &mut PeriodicPairs, scale: f64, skin: f64) -> Self {
+        for (i, b) in rve.bodies.iter_mut().enumerate() {
+            let mut c = b.center();
+            rve.boundary.wrap(&mut c);
+            b.set_center(c);
+            grid.update(i, &c);
+        }
+        let inflated: Vec<Shape> = rve.bodies.iter().map(|b| b.scaled(scale)).collect();
+        let mut pairs = Vec::new();
         for (i, a) in inflated.iter().enumerate() {
-            let ci = a.center();
-            let mut apply = |j: usize, b: &Shape| {
-                let cj = b.center();
-                for_each_contact(a, b, |c| {
-                    let f = c.normal * (kappa * c.depth);
-                    self.force[j] += f;
-                    self.torque[j] += (c.point - cj).cross(&f);
-                    self.force[i] -= f;
-                    self.torque[i] -= (c.point - ci).cross(&f);
-                    self.energy += c.depth * c.depth;
-                    self.contacts += 1;
-                    self.max_depth = self.max_depth.max(c.depth);
-                });
-            };
-            pairs.self_image_offsets(a.bounding_radius(), |t| apply(i, &a.translated(t)));
-            pairs.for_each_image(inflated, a, |j, t| {
+            grid.self_image_offsets(a.bounding_radius() + 0.5 * skin, |t| pairs.push((i, i, t)));
+            grid.for_each_image(&inflated, a, skin, |j, t| {
                 if j > i {
-                    apply(j, &inflated[j].translated(t));
+                    pairs.push((i, j, t));
                 }
             });
         }
+        Self {
+            pairs,
+            anchors: rve.bodies.iter().map(Shape::center).collect(),
+            skin,
+        }
+    }
+
+    fn stale(&self, bodies: &[Shape]) -> bool {
+        let limit = 0.25 * self.skin * self.skin;
+        bodies
+            .iter()
+            .zip(&self.anchors)
+            .any(|(b, a)| (b.center() - a).norm_squared() > limit)
     }
 }
 
@@ -302,19 +343,22 @@ pub fn relax(rve: &mut Rve, settings: &RelaxSettings) -> Result<RelaxReport, Rel
     let scale = 1.0 + settings.margin;
     let inflate =
         |bodies: &[Shape]| -> Vec<Shape> { bodies.iter().map(|b| b.scaled(scale)).collect() };
-    let mut inflated = inflate(&rve.bodies);
-    let max_radius = inflated
+    let max_radius = rve
+        .bodies
         .iter()
-        .map(Shape::bounding_radius)
+        .map(|b| b.scaled(scale).bounding_radius())
         .fold(0.0, f64::max);
-    let mut pairs = PeriodicPairs::new(&rve.boundary, max_radius, n);
+    let mut grid = PeriodicPairs::new(&rve.boundary, max_radius, n);
     for (i, b) in rve.bodies.iter_mut().enumerate() {
         let mut c = b.center();
         rve.boundary.wrap(&mut c);
         b.set_center(c);
-        pairs.insert(i, &c);
+        grid.insert(i, &c);
     }
-    inflated = inflate(&rve.bodies);
+    // Skin of the Verlet list: one smallest radius (at most 0.1 ℓ of motion per step).
+    let skin = ell;
+    let mut near = NearPairs::build(rve, &mut grid, scale, skin);
+    let mut inflated = inflate(&rve.bodies);
     // Inverse rotational inertia 6/‖l‖² (Eq. 3) per cylinder, 0 for spheres.
     let inv_inertia: Vec<f64> = rve
         .bodies
@@ -336,7 +380,7 @@ pub fn relax(rve: &mut Rve, settings: &RelaxSettings) -> Result<RelaxReport, Rel
     let mut omega = vec![Vec3::zeros(); n];
     let mut kappa = settings.initial_prefactor;
     let mut load = Load::new(n);
-    load.compute(&pairs, &inflated, kappa);
+    load.compute(&near, &inflated, kappa);
     let ell2 = ell * ell;
     let initial_contacts = load.contacts;
     let initial_energy = load.energy / ell2;
@@ -402,10 +446,8 @@ pub fn relax(rve: &mut Rve, settings: &RelaxSettings) -> Result<RelaxReport, Rel
                 step *= max_step / len;
                 vel[i] *= max_step / len;
             }
-            let mut c = rve.bodies[i].center() + step;
-            rve.boundary.wrap(&mut c);
+            let c = rve.bodies[i].center() + step;
             rve.bodies[i].set_center(c);
-            pairs.update(i, &c);
             if let Shape::Cylinder(cyl) = &mut rve.bodies[i] {
                 let h = cyl.half_length();
                 let u = cyl.half_axis / h;
@@ -420,8 +462,11 @@ pub fn relax(rve: &mut Rve, settings: &RelaxSettings) -> Result<RelaxReport, Rel
                 cyl.half_axis = turned * (h / turned.norm());
             }
         }
+        if near.stale(&rve.bodies) {
+            near = NearPairs::build(rve, &mut grid, scale, skin);
+        }
         inflated = inflate(&rve.bodies);
-        load.compute(&pairs, &inflated, kappa);
+        load.compute(&near, &inflated, kappa);
         // Second half kick, then damping with the new kinetic energy.
         for i in 0..n {
             vel[i] += load.force[i] * (0.5 * dt);
@@ -463,6 +508,11 @@ pub fn relax(rve: &mut Rve, settings: &RelaxSettings) -> Result<RelaxReport, Rel
             }
             _ => {}
         }
+    }
+    for b in rve.bodies.iter_mut() {
+        let mut c = b.center();
+        rve.boundary.wrap(&mut c);
+        b.set_center(c);
     }
     // The inflated bodies are intersection-free; confirm on the real ones.
     if let Some((i, j, _)) = super::first_intersection(rve) {
