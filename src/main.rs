@@ -2,9 +2,9 @@
 
 use clap::{Parser, Subcommand};
 use densepack::io::packing::Packing;
-use densepack::io::scene::Scene;
+use densepack::io::scene::{AnyScene, MixtureScene, Scene};
 use densepack::kernel::StageReport;
-use densepack::run::{run_scene, RunError};
+use densepack::run::{run_mixture as run_mixture_scene, run_scene, RunError};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -61,8 +61,9 @@ fn main() -> ExitCode {
                     return ExitCode::from(2);
                 }
             };
-            match Scene::from_toml(&text) {
-                Ok(s) => run(&s, Some(out), quiet),
+            match AnyScene::from_toml(&text) {
+                Ok(AnyScene::Spheres(s)) => run(&s, Some(out), quiet),
+                Ok(AnyScene::Mixture(s)) => run_mixture(&s, &out, quiet),
                 Err(e) => {
                     eprintln!("error: {}: {e}", scene.display());
                     ExitCode::from(2)
@@ -125,6 +126,43 @@ fn run(scene: &Scene, out: Option<PathBuf>, quiet: bool) -> ExitCode {
             if let RunError::StageFailed { .. } = e {
                 eprintln!("no packing written");
             }
+            ExitCode::from(1)
+        }
+    }
+}
+
+/// Runs a sphere + cylinder mixture scene and writes the verified packing.
+fn run_mixture(scene: &MixtureScene, out: &std::path::Path, quiet: bool) -> ExitCode {
+    match run_mixture_scene(scene) {
+        Ok(outcome) => {
+            let s = &outcome.packing.stats;
+            if !quiet {
+                let fraction =
+                    |k: &str| s.extra.get(k).and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
+                println!(
+                    "bodies {}  f_s {:.6}  f_c {:.6}  total {:.6}  method {}  wall {:.3} s  \
+                     overlap check: ok (min gap {:.3e})",
+                    outcome.packing.particles.len(),
+                    fraction("sphere_fraction"),
+                    fraction("cylinder_fraction"),
+                    s.packing_fraction,
+                    scene.mixture.method.as_str(),
+                    s.wall_seconds,
+                    outcome.verification.min_pair_gap.unwrap_or(f64::NAN),
+                );
+            }
+            if let Err(e) = outcome.packing.write(out) {
+                eprintln!("error: {e}");
+                return ExitCode::from(1);
+            }
+            if !quiet {
+                println!("wrote {}", out.display());
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            eprintln!("no packing written");
             ExitCode::from(1)
         }
     }

@@ -18,6 +18,7 @@ fn diameters(packing: &Packing) -> Vec<f64> {
         .iter()
         .map(|p| match p {
             ParticleRecord::Sphere { radius, .. } => 2.0 * radius,
+            other => panic!("a sphere packing was expected, got {other:?}"),
         })
         .collect();
     d.sort_by(|a, b| b.total_cmp(a));
@@ -265,6 +266,7 @@ wall_gap = 0.0
             ParticleRecord::Sphere { center, radius } => (0..2)
                 .map(|k| center[k].min(40.0 - center[k]) - radius)
                 .fold(f64::INFINITY, f64::min),
+            other => panic!("a sphere packing was expected, got {other:?}"),
         })
         .fold(f64::INFINITY, f64::min);
     assert!(closest < 0.5, "closest wall gap {closest}");

@@ -631,7 +631,7 @@ fn disk_point_nearest_axis(c: &Cylinder, d: &Disk) -> (Vector3<f64>, bool) {
             break;
         }
         let y = y_of(mid);
-        if y.0.hypot(y.1) > r {
+        if y.0 * y.0 + y.1 * y.1 > r * r {
             lo = mid;
         } else {
             hi = mid;
@@ -759,6 +759,44 @@ fn parallel_cylinders(a: &Cylinder, b: &Cylinder, tol: f64) -> Option<CylinderCo
     Some(CylinderContact::Cc1(contact))
 }
 
+/// Squared distance between the segments `p ± h_p u` and `q ± h_q w` (unit `u`, `w`):
+/// the convex quadratic in the two segment parameters minimised over the rectangle
+/// `[−h_p, h_p] × [−h_q, h_q]` (interior stationary point, else the best of the edges).
+fn segment_distance_squared(
+    p: &Vector3<f64>,
+    u: &Vector3<f64>,
+    hp: f64,
+    q: &Vector3<f64>,
+    w: &Vector3<f64>,
+    hq: f64,
+) -> f64 {
+    let d = p - q;
+    let b = u.dot(w);
+    let (e, f) = (u.dot(&d), w.dot(&d));
+    let dist2 = |s: f64, t: f64| (d + u * s - w * t).norm_squared();
+    // Best t for a given s on the second segment, and vice versa (unit directions).
+    let t_of = |s: f64| (f + b * s).clamp(-hq, hq);
+    let s_of = |t: f64| (b * t - e).clamp(-hp, hp);
+    let denom = 1.0 - b * b;
+    if denom > 1e-12 {
+        let s = (b * f - e) / denom;
+        let t = (f - b * e) / denom;
+        if s.abs() <= hp && t.abs() <= hq {
+            return dist2(s, t);
+        }
+    }
+    // The minimum lies on an edge of the rectangle.
+    [
+        (-hp, t_of(-hp)),
+        (hp, t_of(hp)),
+        (s_of(-hq), -hq),
+        (s_of(hq), hq),
+    ]
+    .into_iter()
+    .map(|(s, t)| dist2(s, t))
+    .fold(f64::INFINITY, f64::min)
+}
+
 /// Shared body of [`intersect_cylinder_cylinder`] and [`overlaps`]; with `first_only` it
 /// returns as soon as one base intersection is found.
 fn cylinder_cylinder(a: &Cylinder, b: &Cylinder, first_only: bool) -> Option<CylinderContact> {
@@ -768,6 +806,20 @@ fn cylinder_cylinder(a: &Cylinder, b: &Cylinder, first_only: bool) -> Option<Cyl
     let ra = a.half_length().hypot(a.radius);
     let rb = b.half_length().hypot(b.radius);
     if d.norm() >= ra + rb {
+        return None;
+    }
+    // Bounding capsules (each cylinder lies within its radius of its axis segment): an
+    // exact early exit, with the touching tolerance on the safe side.
+    let reach = a.radius + b.radius + tol;
+    if segment_distance_squared(
+        &a.center,
+        &a.axis(),
+        a.half_length(),
+        &b.center,
+        &b.axis(),
+        b.half_length(),
+    ) >= reach * reach
+    {
         return None;
     }
     let (u1, u2) = (a.axis(), b.axis());
@@ -874,5 +926,99 @@ pub fn overlaps(a: &Shape, b: &Shape) -> bool {
             intersect_sphere_cylinder(s, c).is_some()
         }
         (Shape::Cylinder(c), Shape::Cylinder(e)) => cylinder_cylinder(c, e, true).is_some(),
+    }
+}
+
+impl Shape {
+    /// Centre of the body.
+    pub fn center(&self) -> Vector3<f64> {
+        match self {
+            Shape::Sphere(s) => s.center,
+            Shape::Cylinder(c) => c.center,
+        }
+    }
+
+    /// Moves the centre to `center`.
+    pub fn set_center(&mut self, center: Vector3<f64>) {
+        match self {
+            Shape::Sphere(s) => s.center = center,
+            Shape::Cylinder(c) => c.center = center,
+        }
+    }
+
+    /// The same body moved by `shift`.
+    pub fn translated(&self, shift: Vector3<f64>) -> Shape {
+        let mut moved = *self;
+        moved.set_center(self.center() + shift);
+        moved
+    }
+
+    /// The body scaled about its centre by `factor` (radius and half axis), which contains
+    /// the original for `factor ≥ 1`.
+    pub fn scaled(&self, factor: f64) -> Shape {
+        match self {
+            Shape::Sphere(s) => Shape::Sphere(Sphere {
+                radius: s.radius * factor,
+                ..*s
+            }),
+            Shape::Cylinder(c) => Shape::Cylinder(Cylinder {
+                radius: c.radius * factor,
+                half_axis: c.half_axis * factor,
+                ..*c
+            }),
+        }
+    }
+
+    /// Radius of the smallest sphere about the centre containing the body:
+    /// `r_s`, or `sqrt(h² + r_c²)` for a cylinder.
+    pub fn bounding_radius(&self) -> f64 {
+        match self {
+            Shape::Sphere(s) => s.radius,
+            Shape::Cylinder(c) => (c.half_axis.norm_squared() + c.radius * c.radius).sqrt(),
+        }
+    }
+
+    /// Volume: `4/3 π r³`, or `2π r² h` for a cylinder.
+    pub fn volume(&self) -> f64 {
+        match self {
+            Shape::Sphere(s) => 4.0 / 3.0 * std::f64::consts::PI * s.radius.powi(3),
+            Shape::Cylinder(c) => 2.0 * std::f64::consts::PI * c.radius.powi(2) * c.half_length(),
+        }
+    }
+}
+
+/// Calls `f` with every intersection of `a` and `b` found by the typed tests (one for
+/// spheres, `sc*` and `cc1`; every `cd*`/`d*` base intersection for two cylinders, which
+/// §IV combines), each oriented so that `normal` pushes `b` out of `a`. Calls nothing iff
+/// [`overlaps`] is `false`.
+pub fn for_each_contact(a: &Shape, b: &Shape, mut f: impl FnMut(Contact)) {
+    match (a, b) {
+        (Shape::Sphere(s), Shape::Sphere(t)) => {
+            if let Some(c) = intersect_sphere_sphere(s, t) {
+                f(c);
+            }
+        }
+        (Shape::Sphere(s), Shape::Cylinder(c)) => {
+            if let Some(c) = intersect_sphere_cylinder(s, c) {
+                f(c.contact);
+            }
+        }
+        (Shape::Cylinder(c), Shape::Sphere(s)) => {
+            if let Some(c) = intersect_sphere_cylinder(s, c) {
+                f(flipped(c.contact));
+            }
+        }
+        (Shape::Cylinder(c), Shape::Cylinder(e)) => match intersect_cylinder_cylinder(c, e) {
+            None => {}
+            Some(CylinderContact::Cc1(contact)) => f(contact),
+            Some(CylinderContact::Bases(all)) => {
+                for base in all {
+                    f(match base {
+                        BaseContact::DiskSide { contact, .. } => contact.contact,
+                        BaseContact::DiskDisk { contact, .. } => contact.contact,
+                    });
+                }
+            }
+        },
     }
 }

@@ -3,7 +3,9 @@
 //! ```json
 //! {"format": "densepack-packing", "version": 1,
 //!  "container": {"type": "box", "min": [0,0,0], "max": [10,10,10], "periodic": [true,true,true]},
-//!  "particles": [{"type": "sphere", "center": [1.0, 2.0, 3.0], "radius": 0.5}],
+//!  "particles": [{"type": "sphere", "center": [1.0, 2.0, 3.0], "radius": 0.5},
+//!                {"type": "cylinder", "center": [5.0, 5.0, 5.0], "radius": 0.3,
+//!                 "half_axis": [0.0, 0.0, 1.5]}],
 //!  "min_gap": 0.0, "seed": 42,   // optional "wall_gap" (default min_gap / 2)
 //!  "stats": {"packing_fraction": 0.64, "reduced_pressure": 1e12, "events": 1, "collisions": 1,
 //!            "wall_seconds": 0.1, "stop_reason": "jammed"}}
@@ -48,6 +50,17 @@ pub enum ParticleRecord {
         center: [f64; 3],
         /// Radius.
         radius: f64,
+    },
+    /// A finite flat-ended cylinder (sphere + cylinder mixtures): the body within `radius`
+    /// of the segment from `center − half_axis` to `center + half_axis`, cut by the planes
+    /// of its two end disks.
+    Cylinder {
+        /// Centre.
+        center: [f64; 3],
+        /// Radius.
+        radius: f64,
+        /// Half axis: from the centre to the centre of one end disk.
+        half_axis: [f64; 3],
     },
 }
 

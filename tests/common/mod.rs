@@ -42,6 +42,7 @@ pub fn assert_no_overlap(packing: &Packing) -> f64 {
         .iter()
         .map(|p| match p {
             ParticleRecord::Sphere { center, radius } => (*center, *radius),
+            other => panic!("a sphere packing was expected, got {other:?}"),
         })
         .collect();
     let mut worst = f64::INFINITY;
@@ -106,6 +107,7 @@ pub fn assert_gap_and_containment(packing: &Packing) -> f64 {
         .iter()
         .map(|p| match p {
             ParticleRecord::Sphere { center, radius } => (*center, *radius),
+            other => panic!("a sphere packing was expected, got {other:?}"),
         })
         .collect();
     let (len, periodic) = match &packing.container {
