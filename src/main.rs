@@ -1,5 +1,7 @@
 //! The `densepack` command line. Thin: parses, calls the library, prints.
 
+mod cli;
+
 use clap::{Parser, Subcommand};
 use densepack::io::packing::Packing;
 use densepack::io::scene::Scene;
@@ -43,6 +45,8 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Export a packing for meshing (Gmsh), visualisation (VTK), FFT (voxels) or tables (CSV).
+    Export(cli::export::ExportArgs),
 }
 
 fn main() -> ExitCode {
@@ -70,6 +74,7 @@ fn main() -> ExitCode {
             }
         }
         Some(Command::Verify { packing, json }) => verify(&packing, json),
+        Some(Command::Export(args)) => cli::export::run(&args),
     }
 }
 
