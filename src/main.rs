@@ -5,8 +5,8 @@ mod cli;
 use clap::{Parser, Subcommand};
 use densepack::io::packing::Packing;
 use densepack::io::scene::Scene;
-use densepack::kernel::StageReport;
-use densepack::run::{run_scene, RunError};
+use densepack::kernel::{Progress, StageReport};
+use densepack::run::{run_scene_observed, RunError};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -36,6 +36,10 @@ enum Command {
         /// Print nothing but errors.
         #[arg(long)]
         quiet: bool,
+        /// Progress as one JSON object per line on stderr (about 4 a second, plus one per
+        /// finished stage) instead of the live line.
+        #[arg(long)]
+        log_json: bool,
     },
     /// Check a packing for overlaps, gaps and containment, independently of the simulation.
     Verify {
@@ -47,6 +51,11 @@ enum Command {
     },
     /// Export a packing for meshing (Gmsh), visualisation (VTK), FFT (voxels) or tables (CSV).
     Export(cli::export::ExportArgs),
+    /// Dry run of the take phase: grading curve → expected particle count, φ_eff, memory;
+    /// optionally the drawn diameters.
+    Take(cli::take::TakeArgs),
+    /// Write a commented sample scene.
+    Init(cli::init::InitArgs),
 }
 
 fn main() -> ExitCode {
@@ -55,9 +64,14 @@ fn main() -> ExitCode {
         None => {
             println!("densepack: running the embedded default scene (10 000 equal spheres, periodic, grown to jamming)");
             let scene = Scene::from_toml(DEFAULT_SCENE).expect("the embedded scene is valid");
-            run(&scene, None, false)
+            run(&scene, None, false, false)
         }
-        Some(Command::Run { scene, out, quiet }) => {
+        Some(Command::Run {
+            scene,
+            out,
+            quiet,
+            log_json,
+        }) => {
             let text = match std::fs::read_to_string(&scene) {
                 Ok(t) => t,
                 Err(e) => {
@@ -66,7 +80,7 @@ fn main() -> ExitCode {
                 }
             };
             match Scene::from_toml(&text) {
-                Ok(s) => run(&s, Some(out), quiet),
+                Ok(s) => run(&s, Some(out), quiet, log_json),
                 Err(e) => {
                     eprintln!("error: {}: {e}", scene.display());
                     ExitCode::from(2)
@@ -75,28 +89,21 @@ fn main() -> ExitCode {
         }
         Some(Command::Verify { packing, json }) => verify(&packing, json),
         Some(Command::Export(args)) => cli::export::run(&args),
+        Some(Command::Take(args)) => cli::take::run(&args),
+        Some(Command::Init(args)) => cli::init::run(&args),
     }
 }
 
-fn print_stage(k: usize, r: &StageReport) {
-    eprintln!(
-        "stage {k}: {} after {} events ({} collisions) in {:.2} s, φ = {:.6}, Z = {:.4e}",
-        r.stop_reason.as_str(),
-        r.counts.events,
-        r.counts.collisions,
-        r.wall_seconds,
-        r.packing_fraction,
-        r.reduced_pressure
+fn run(scene: &Scene, out: Option<PathBuf>, quiet: bool, log_json: bool) -> ExitCode {
+    let reporter = std::cell::RefCell::new(cli::progress::Reporter::new(quiet, log_json));
+    let result = run_scene_observed(
+        scene,
+        &mut |k: usize, r: &StageReport| reporter.borrow_mut().stage_done(k, r),
+        &mut |k: usize, p: &Progress| reporter.borrow_mut().progress(k, p),
     );
-}
-
-fn run(scene: &Scene, out: Option<PathBuf>, quiet: bool) -> ExitCode {
-    let mut on_stage = |k: usize, r: &StageReport| {
-        if !quiet {
-            print_stage(k, r);
-        }
-    };
-    match run_scene(scene, &mut on_stage) {
+    let reporter = reporter.into_inner();
+    reporter.finish();
+    match result {
         Ok(outcome) => {
             let s = &outcome.packing.stats;
             if !quiet {

@@ -4,9 +4,11 @@
 //! monomorphised for them: a fully periodic box gets [`PeriodicBox`] (no wall code at all).
 
 use crate::boundary::{Boundary, CylinderContainer, PeriodicBox, WalledBox};
-use crate::io::packing::{ContainerRecord, Packing, PackingStats, ParticleRecord, FORMAT};
+use crate::io::packing::{
+    ContainerRecord, Packing, PackingStats, ParticleRecord, Provenance, Timings, FORMAT,
+};
 use crate::io::scene::{ContainerSpec, Scene};
-use crate::kernel::{Edmd, KernelConfig, StageReport};
+use crate::kernel::{Edmd, KernelConfig, Progress, StageReport};
 use crate::protocol::rsa::{rsa_spheres, RsaFailure};
 use crate::queue::{CalendarQueue, EventQueue, HeapQueue, QueueKind};
 use crate::shape::{Sphere, Vec3};
@@ -60,6 +62,16 @@ pub fn run_scene(
     scene: &Scene,
     on_stage: &mut dyn FnMut(usize, &StageReport),
 ) -> Result<RunOutcome, RunError> {
+    run_scene_observed(scene, on_stage, &mut |_, _| {})
+}
+
+/// [`run_scene`], also telling `on_progress` the stage index and its [`Progress`] at every
+/// time barrier (throttle in the observer: barriers can come thousands of times a second).
+pub fn run_scene_observed(
+    scene: &Scene,
+    on_stage: &mut dyn FnMut(usize, &StageReport),
+    on_progress: &mut dyn FnMut(usize, &Progress),
+) -> Result<RunOutcome, RunError> {
     match &scene.container {
         ContainerSpec::Box {
             min,
@@ -69,14 +81,14 @@ pub fn run_scene(
             let min = Vec3::from(*min);
             let len = Vec3::from(*size);
             if periodic.iter().all(|&p| p) {
-                dispatch_queue(scene, PeriodicBox { min, len }, on_stage)
+                dispatch_queue(scene, PeriodicBox { min, len }, on_stage, on_progress)
             } else {
                 let walled = WalledBox {
                     min,
                     max: min + len,
                     periodic: *periodic,
                 };
-                dispatch_queue(scene, walled, on_stage)
+                dispatch_queue(scene, walled, on_stage, on_progress)
             }
         }
         ContainerSpec::Cylinder {
@@ -89,7 +101,7 @@ pub fn run_scene(
                 radius: *radius,
                 height: *height,
             };
-            dispatch_queue(scene, cylinder, on_stage)
+            dispatch_queue(scene, cylinder, on_stage, on_progress)
         }
     }
 }
@@ -98,10 +110,11 @@ fn dispatch_queue<B: Boundary + ContainerRecordOf>(
     scene: &Scene,
     boundary: B,
     on_stage: &mut dyn FnMut(usize, &StageReport),
+    on_progress: &mut dyn FnMut(usize, &Progress),
 ) -> Result<RunOutcome, RunError> {
     match scene.queue {
-        QueueKind::Heap => run_with::<B, HeapQueue>(scene, boundary, on_stage),
-        QueueKind::Calendar => run_with::<B, CalendarQueue>(scene, boundary, on_stage),
+        QueueKind::Heap => run_with::<B, HeapQueue>(scene, boundary, on_stage, on_progress),
+        QueueKind::Calendar => run_with::<B, CalendarQueue>(scene, boundary, on_stage, on_progress),
     }
 }
 
@@ -145,7 +158,9 @@ fn run_with<B: Boundary + ContainerRecordOf, Q: EventQueue>(
     scene: &Scene,
     boundary: B,
     on_stage: &mut dyn FnMut(usize, &StageReport),
+    on_progress: &mut dyn FnMut(usize, &Progress),
 ) -> Result<RunOutcome, RunError> {
+    let started = std::time::Instant::now();
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(scene.seed);
     let radii: Vec<f64> = scene.seeding_diameters().iter().map(|d| 0.5 * d).collect();
     let centres = rsa_spheres(
@@ -155,6 +170,7 @@ fn run_with<B: Boundary + ContainerRecordOf, Q: EventQueue>(
         scene.particles.rsa_max_failures,
         &mut rng,
     )?;
+    let seeding_seconds = started.elapsed().as_secs_f64();
     let shapes = radii.iter().map(|&r| Sphere::new(r)).collect();
     let config = KernelConfig {
         mass: scene.mass,
@@ -165,7 +181,7 @@ fn run_with<B: Boundary + ContainerRecordOf, Q: EventQueue>(
     let mut kernel: Edmd<Sphere, B, Q> = Edmd::new(centres, shapes, boundary, config, &mut rng);
     let mut reports: Vec<StageReport> = Vec::new();
     for (k, spec) in scene.stages.iter().enumerate() {
-        let report = kernel.run_stage(&spec.to_stage());
+        let report = kernel.run_stage_observed(&spec.to_stage(), &mut |p| on_progress(k, p));
         on_stage(k, &report);
         let failed = !report.stop_reason.is_success();
         reports.push(report);
@@ -181,12 +197,26 @@ fn run_with<B: Boundary + ContainerRecordOf, Q: EventQueue>(
             });
         }
     }
-    let packing = packing_of(scene, &kernel, &reports);
+    let mut packing = packing_of(scene, &kernel, &reports);
     drop(kernel); // the verification's own index should not add to the kernel's peak memory
+    let verify_started = std::time::Instant::now();
     let verification = verify(&packing);
     if !verification.ok() {
         return Err(RunError::Verification(verification.violations.join("; ")));
     }
+    packing.provenance = Some(Provenance {
+        densepack_version: env!("CARGO_PKG_VERSION").into(),
+        seed: scene.seed,
+        scene: serde_json::to_value(scene).expect("a scene serialises"),
+        timings: Timings {
+            seeding_seconds,
+            stages_seconds: reports.iter().map(|r| r.wall_seconds).sum(),
+            verification_seconds: verify_started.elapsed().as_secs_f64(),
+        },
+        finished_unix_seconds: std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_secs()),
+    });
     Ok(RunOutcome {
         packing,
         stages: reports,
@@ -249,5 +279,6 @@ fn packing_of<B: Boundary + ContainerRecordOf, Q: EventQueue>(
             stop_reason: last.stop_reason.as_str().into(),
             extra,
         },
+        provenance: None,
     }
 }

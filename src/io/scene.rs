@@ -31,10 +31,10 @@
 use crate::kernel::{KernelConfig, Limits, Stage, Until};
 use crate::queue::QueueKind;
 use crate::shape::{Growth, MassRule};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// A scene file.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Scene {
     /// Seed of the random generator (Xoshiro256++).
@@ -77,7 +77,7 @@ fn default_neighbour_skin() -> f64 {
 }
 
 /// The container of a scene.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
 pub enum ContainerSpec {
     /// An axis-aligned box.
@@ -103,7 +103,7 @@ pub enum ContainerSpec {
 }
 
 /// One size class of particles.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Component {
     /// Number of spheres.
@@ -113,7 +113,7 @@ pub struct Component {
 }
 
 /// The particles of a scene.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct ParticlesSpec {
     /// Number of equal spheres (with `diameter`).
@@ -135,7 +135,7 @@ fn default_rsa_failures() -> u64 {
 }
 
 /// Goal of a stage.
-#[derive(Clone, Debug, Default, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct UntilSpec {
     /// Packing fraction to reach.
@@ -149,7 +149,7 @@ pub struct UntilSpec {
 }
 
 /// Growth protocol names.
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 pub enum GrowthKind {
     /// No growth.
@@ -161,7 +161,7 @@ pub enum GrowthKind {
 }
 
 /// A stage of a scene.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct StageSpec {
     /// Growth protocol.

@@ -340,6 +340,7 @@ mod tests {
                 stop_reason: String::new(),
                 extra: Default::default(),
             },
+            provenance: None,
         }
     }
 

@@ -1,0 +1,153 @@
+//! The user-facing subcommands around `run`: `init`, `take`, progress output and provenance.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn densepack(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_densepack"))
+        .args(args)
+        .output()
+        .expect("densepack runs")
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("densepack-tool-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+#[test]
+fn init_spheres_writes_a_scene_that_runs_with_json_progress_and_provenance() {
+    let dir = temp_dir("init");
+    let scene = dir.join("scene.toml");
+    let init = densepack(&["init", "spheres", "--out", scene.to_str().unwrap()]);
+    assert!(init.status.success());
+    // Not overwritten a second time.
+    let again = densepack(&["init", "spheres", "--out", scene.to_str().unwrap()]);
+    assert_eq!(again.status.code(), Some(2));
+
+    let out = dir.join("packing.json");
+    let run = densepack(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--log-json",
+    ]);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    // stderr: only JSON lines; the stage line reports success.
+    let lines: Vec<serde_json::Value> = stderr
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{l}: {e}")))
+        .collect();
+    let stages: Vec<&serde_json::Value> = lines.iter().filter(|l| l["type"] == "stage").collect();
+    assert_eq!(stages.len(), 1);
+    assert_eq!(stages[0]["report"]["stop_reason"], "jammed");
+    for l in lines.iter().filter(|l| l["type"] == "progress") {
+        let phi = l["packing_fraction"].as_f64().unwrap();
+        assert!((0.3 - 1e-9..0.75).contains(&phi), "{l}");
+    }
+    // stdout: the summary (data), no progress.
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(stdout.starts_with("particles 1000"), "{stdout}");
+
+    let packing = densepack::io::packing::Packing::read(&out).unwrap();
+    let p = packing.provenance.expect("provenance is recorded");
+    assert_eq!(p.densepack_version, env!("CARGO_PKG_VERSION"));
+    assert_eq!(p.seed, 1);
+    // The resolved scene: defaults the file leaves out are filled in.
+    assert_eq!(p.scene["particles"]["count"], 1000);
+    assert_eq!(p.scene["queue"], "calendar");
+    assert_eq!(p.scene["mass"], "equal");
+    assert_eq!(p.scene["temperature"], 1.0);
+    assert_eq!(p.scene["stage"][0]["until"]["reduced_pressure"], 1e12);
+    assert!(p.timings.stages_seconds > 0.0 && p.timings.verification_seconds >= 0.0);
+}
+
+#[test]
+fn init_for_shapes_the_scene_format_cannot_describe_yet_fails_clearly() {
+    for kind in ["concrete", "ellipsoids", "mixture"] {
+        let r = densepack(&["init", kind]);
+        assert_eq!(r.status.code(), Some(2));
+        assert!(r.stdout.is_empty());
+        let stderr = String::from_utf8_lossy(&r.stderr);
+        assert!(stderr.contains("only `densepack init spheres`"), "{stderr}");
+    }
+}
+
+#[test]
+fn take_reproduces_the_papers_b16_example_and_draws_the_sizes() {
+    // Titscher & Unger: B16, φ_M = 0.70, d_min = 2 mm, 150 mm cube: B16 passes 42 % at 2 mm,
+    // so φ_eff = 0.7 · 0.58 = 0.406, and N ≈ 40 049 from the sieve table.
+    let r = densepack(&[
+        "take",
+        "B16",
+        "--phi-m",
+        "0.7",
+        "--d-min",
+        "2",
+        "--box",
+        "150,150,150",
+        "--json",
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let s: serde_json::Value = serde_json::from_slice(&r.stdout).unwrap();
+    assert!((s["phi_eff"].as_f64().unwrap() - 0.406).abs() < 1e-12);
+    assert!((s["expected_count"].as_f64().unwrap() - 40_049.0).abs() < 1.0);
+    assert_eq!(s["largest_diameter"], 16.0);
+
+    let dir = temp_dir("take");
+    let sizes = dir.join("sizes.txt");
+    let r = densepack(&[
+        "take",
+        "fuller:0.5:16",
+        "--phi-m",
+        "0.75",
+        "--d-min",
+        "2",
+        "--box",
+        "80,80,80",
+        "--seed",
+        "3",
+        "--sizes",
+        sizes.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let s: serde_json::Value = serde_json::from_slice(&r.stdout).unwrap();
+    let d: Vec<f64> = std::fs::read_to_string(&sizes)
+        .unwrap()
+        .lines()
+        .map(|l| l.parse().unwrap())
+        .collect();
+    assert_eq!(d.len() as u64, s["drawn"]["count"].as_u64().unwrap());
+    assert!(d.iter().all(|&x| (2.0..=16.0).contains(&x)));
+    assert!(d.windows(2).all(|w| w[0] >= w[1]));
+    // φ_eff = 0.75 (1 − √(2/16)); the drawn volume exceeds it by less than one small grain.
+    let phi_eff = 0.75 * (1.0 - (2.0f64 / 16.0).sqrt());
+    let drawn: f64 = d
+        .iter()
+        .map(|x| std::f64::consts::PI / 6.0 * x.powi(3))
+        .sum::<f64>()
+        / 512_000.0;
+    assert!(drawn >= phi_eff && drawn - phi_eff < std::f64::consts::PI / 6.0 * 8.0 / 512_000.0);
+}
+
+#[test]
+fn take_rejects_unknown_curves_and_missing_specimens_with_exit_code_2() {
+    let r = densepack(&[
+        "take", "X16", "--phi-m", "0.7", "--d-min", "2", "--volume", "1e6",
+    ]);
+    assert_eq!(r.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("A8, B8, C8, A16, B16, C16"));
+    let r = densepack(&["take", "B16", "--phi-m", "0.7", "--d-min", "2"]);
+    assert_eq!(r.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("--box"));
+    let r = densepack(&[
+        "take", "B16", "--phi-m", "1.2", "--d-min", "2", "--volume", "1e6",
+    ]);
+    assert_eq!(r.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("phi_m"));
+}
