@@ -3,7 +3,6 @@
 mod cli;
 
 use clap::{Parser, Subcommand};
-use densepack::io::packing::Packing;
 use densepack::io::scene::Scene;
 use densepack::kernel::{Progress, StageReport};
 use densepack::run::{run_scene_observed, RunError};
@@ -48,6 +47,13 @@ enum Command {
         /// Print the report as JSON.
         #[arg(long)]
         json: bool,
+        /// Also compare the sieve curve of the spheres with this grading curve (a DIN name,
+        /// fuller:Q:D_MAX or a TOML file with a `grading` table).
+        #[arg(long)]
+        grading: Option<String>,
+        /// Cut-off diameter of the grading comparison (default: the smallest sphere).
+        #[arg(long, requires = "grading")]
+        d_min: Option<f64>,
     },
     /// Export a packing for meshing (Gmsh), visualisation (VTK), FFT (voxels) or tables (CSV).
     Export(cli::export::ExportArgs),
@@ -87,7 +93,12 @@ fn main() -> ExitCode {
                 }
             }
         }
-        Some(Command::Verify { packing, json }) => verify(&packing, json),
+        Some(Command::Verify {
+            packing,
+            json,
+            grading,
+            d_min,
+        }) => cli::verify::run(&packing, json, grading.as_deref(), d_min),
         Some(Command::Export(args)) => cli::export::run(&args),
         Some(Command::Take(args)) => cli::take::run(&args),
         Some(Command::Init(args)) => cli::init::run(&args),
@@ -139,40 +150,5 @@ fn run(scene: &Scene, out: Option<PathBuf>, quiet: bool, log_json: bool) -> Exit
             }
             ExitCode::from(1)
         }
-    }
-}
-
-fn verify(path: &std::path::Path, json: bool) -> ExitCode {
-    let packing = match Packing::read(path) {
-        Ok(p) => p,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::from(2);
-        }
-    };
-    let v = densepack::verify::verify(&packing);
-    if json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&v).expect("serialisable")
-        );
-    } else {
-        println!(
-            "particles {}  packing_fraction {:.6}  min pair gap {:.3e} (relative {:.3e})  min wall gap {}  violations {}",
-            v.particles,
-            v.packing_fraction,
-            v.min_pair_gap.unwrap_or(f64::NAN),
-            v.min_pair_gap_relative.unwrap_or(f64::NAN),
-            v.min_wall_gap.map_or("none".into(), |g| format!("{g:.3e}")),
-            v.violation_count
-        );
-        for msg in &v.violations {
-            println!("  {msg}");
-        }
-    }
-    if v.ok() {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::from(1)
     }
 }

@@ -151,3 +151,63 @@ fn take_rejects_unknown_curves_and_missing_specimens_with_exit_code_2() {
     assert_eq!(r.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&r.stderr).contains("phi_m"));
 }
+
+#[test]
+fn verify_reports_gaps_and_the_sieve_curve_of_a_constructed_packing() {
+    // Two spheres, diameters 1 and 2, centres 1.6 apart: relative gap 1.6 / 1.5 − 1 = 1/15.
+    // Sieve table 1 → 0 %, 2 → 100 % (linear in ln d), cut at d_min = 1: at the half-octave
+    // sieve √2 the target is ln √2 / ln 2 = 0.5 and the packing passes 1/9 of the volume.
+    let dir = temp_dir("verify");
+    let packing = dir.join("two.json");
+    std::fs::write(
+        &packing,
+        r#"{"format": "densepack-packing", "version": 1,
+            "container": {"type": "box", "min": [0,0,0], "max": [10,10,10], "periodic": [true,true,true]},
+            "particles": [{"type": "sphere", "center": [2, 5, 5], "radius": 0.5},
+                          {"type": "sphere", "center": [3.6, 5, 5], "radius": 1.0}],
+            "min_gap": 0.0, "seed": 0,
+            "stats": {"packing_fraction": 0, "reduced_pressure": 0, "events": 0, "collisions": 0,
+                      "wall_seconds": 0, "stop_reason": "none"}}"#,
+    )
+    .unwrap();
+    let grading = dir.join("curve.toml");
+    std::fs::write(
+        &grading,
+        "grading = { kind = \"table\", sizes = [1.0, 2.0], passing = [0.0, 100.0] }\n",
+    )
+    .unwrap();
+    let r = densepack(&[
+        "verify",
+        packing.to_str().unwrap(),
+        "--json",
+        "--grading",
+        grading.to_str().unwrap(),
+        "--d-min",
+        "1",
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&r.stdout).unwrap();
+    assert!((v["min_pair_gap_relative"].as_f64().unwrap() - 1.0 / 15.0).abs() < 1e-12);
+    let bins = v["gap_histogram"].as_array().unwrap();
+    let in_bin = |lo: f64| {
+        bins.iter()
+            .find(|b| b["lo"].as_f64() == Some(lo))
+            .map(|b| b["count"].as_u64().unwrap())
+    };
+    assert_eq!(in_bin(0.01), Some(2)); // 1/15 ∈ [0.01, 0.1) for both spheres
+    let points = v["sieve"]["points"].as_array().unwrap();
+    let at = |size: f64| {
+        points
+            .iter()
+            .find(|p| (p["size"].as_f64().unwrap() - size).abs() < 1e-12)
+            .unwrap_or_else(|| panic!("no sieve {size}"))
+    };
+    assert_eq!(at(1.0)["passing"].as_f64(), Some(1.0 / 9.0));
+    assert_eq!(at(1.0)["target"].as_f64(), Some(0.0));
+    let half = at(2f64.sqrt());
+    assert!((half["target"].as_f64().unwrap() - 0.5).abs() < 1e-12);
+    assert!((half["passing"].as_f64().unwrap() - 1.0 / 9.0).abs() < 1e-12);
+    assert_eq!(at(2.0)["passing"].as_f64(), Some(1.0));
+    let worst = v["sieve"]["max_deviation"].as_f64().unwrap();
+    assert!((worst - (0.5 - 1.0 / 9.0)).abs() < 1e-12);
+}

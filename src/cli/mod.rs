@@ -4,3 +4,4 @@ pub mod export;
 pub mod init;
 pub mod progress;
 pub mod take;
+pub mod verify;

@@ -45,7 +45,9 @@ pub struct TakeArgs {
     json: bool,
 }
 
-fn curve_of(text: &str) -> Result<(GradingCurve, String), String> {
+/// Parses a grading curve given as a DIN name, `fuller:Q:D_MAX` or a TOML file with a
+/// `grading` table; returns it with a description.
+pub fn curve_of(text: &str) -> Result<(GradingCurve, String), String> {
     let din = [
         ("A8", DinCurve::A8),
         ("B8", DinCurve::B8),
