@@ -211,3 +211,29 @@ fn verify_reports_gaps_and_the_sieve_curve_of_a_constructed_packing() {
     let worst = v["sieve"]["max_deviation"].as_f64().unwrap();
     assert!((worst - (0.5 - 1.0 / 9.0)).abs() < 1e-12);
 }
+
+#[test]
+fn an_unknown_key_in_a_tagged_table_is_reported_with_its_line_and_the_allowed_keys() {
+    let dir = temp_dir("unknown");
+    let scene = dir.join("scene.toml");
+    std::fs::write(
+        &scene,
+        "seed = 1\n[container]\ntype = \"box\"\nsize = [5.0, 5.0, 5.0]\n\
+         periodic = [true, true, true]\nsizee = 3\n[particles]\ncount = 10\ndiameter = 1.0\n\
+         [[stage]]\ngrowth = \"none\"\nuntil = { time = 1.0 }\n",
+    )
+    .unwrap();
+    let out = dir.join("p.json");
+    let r = densepack(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(r.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(stderr.contains("unknown field `sizee`"), "{stderr}");
+    assert!(stderr.contains("`min`, `size`, `periodic`"), "{stderr}");
+    assert!(stderr.contains("`sizee` is on line 6"), "{stderr}");
+    assert!(!out.exists());
+}

@@ -230,6 +230,34 @@ fn fraction(field: &str, x: f64) -> Result<(), SceneError> {
     }
 }
 
+/// The parser's message, plus the lines of an unknown key: inside a tagged table (such as
+/// `[container]`) the parser can only point at the table's header.
+fn locate_unknown_key(text: &str, error: toml::de::Error) -> String {
+    let message = error.to_string();
+    let Some(key) = message
+        .split("unknown field `")
+        .nth(1)
+        .and_then(|rest| rest.split('`').next())
+    else {
+        return message;
+    };
+    let lines: Vec<String> = text
+        .lines()
+        .enumerate()
+        .filter(|(_, line)| {
+            line.trim_start()
+                .strip_prefix(key)
+                .is_some_and(|rest| rest.trim_start().starts_with('='))
+        })
+        .map(|(k, _)| (k + 1).to_string())
+        .collect();
+    if lines.is_empty() {
+        message
+    } else {
+        format!("{message}(`{key}` is on line {})\n", lines.join(", "))
+    }
+}
+
 /// Densest possible packing fraction of equal spheres (Kepler, fcc/hcp): no monodisperse
 /// scene can grow past it, which bounds the largest diameter a growth run can reach.
 pub const KEPLER_FRACTION: f64 = 0.740_480_489_693_061;
@@ -237,7 +265,8 @@ pub const KEPLER_FRACTION: f64 = 0.740_480_489_693_061;
 impl Scene {
     /// Parses a scene from TOML text and validates it.
     pub fn from_toml(text: &str) -> Result<Self, SceneError> {
-        let scene: Scene = toml::from_str(text).map_err(|e| SceneError::Parse(e.to_string()))?;
+        let scene: Scene =
+            toml::from_str(text).map_err(|e| SceneError::Parse(locate_unknown_key(text, e)))?;
         scene.validate()?;
         Ok(scene)
     }
