@@ -11,7 +11,7 @@ use std::process::ExitCode;
 pub enum Kind {
     /// Equal spheres in a periodic box, grown to jamming (runnable).
     Spheres,
-    /// Aggregates from a grading curve in a concrete specimen.
+    /// DIN B16 aggregates (4–16 mm) in a 50 mm walled cube, from `densepack take` (runnable).
     Concrete,
     /// Ellipsoids.
     Ellipsoids,
@@ -31,19 +31,22 @@ pub struct InitArgs {
 }
 
 const SPHERES: &str = include_str!("../../examples/scenes/sample_spheres.toml");
+/// Written by `densepack take B16 --phi-m 0.7 --d-min 4 --box 50,50,50 --seed 1 --scene ..`
+/// (a test checks that the command still writes exactly this file).
+const CONCRETE: &str = include_str!("../../examples/scenes/concrete_b16_50mm.toml");
 
 /// Runs `init`.
 pub fn run(args: &InitArgs) -> ExitCode {
     let text = match args.kind {
         Kind::Spheres => SPHERES,
-        Kind::Concrete | Kind::Ellipsoids | Kind::Mixture => {
+        Kind::Concrete => CONCRETE,
+        Kind::Ellipsoids | Kind::Mixture => {
             eprintln!(
                 "error: `densepack init {}`: scene files cannot describe {} yet in this version; \
-                 only `densepack init spheres` writes a runnable scene. For concrete, \
-                 `densepack take CURVE --phi-m .. --d-min .. --box ..` gives the size list.",
+                 only `densepack init spheres` and `densepack init concrete` write runnable \
+                 scenes.",
                 format!("{:?}", args.kind).to_lowercase(),
                 match args.kind {
-                    Kind::Concrete => "grading-curve aggregates",
                     Kind::Ellipsoids => "ellipsoids",
                     _ => "sphere–cylinder mixtures",
                 }

@@ -33,16 +33,74 @@ pub struct TakeArgs {
     /// Cylinder specimen (mm): RADIUS,HEIGHT.
     #[arg(long, value_delimiter = ',')]
     cylinder: Option<Vec<f64>>,
-    /// Draw the diameters (largest first) with this seed and write them, one per line, to
-    /// the file given by --sizes.
+    /// Seed for drawing the diameters (--sizes, --scene).
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Write the drawn diameters (mm) to this file.
     #[arg(long)]
     sizes: Option<PathBuf>,
+    /// Write a runnable scene with the drawn diameters (walled box from --box, or cylinder
+    /// from --cylinder): seeded at a lower fraction, then grown back exactly to the drawn
+    /// sizes.
+    #[arg(long)]
+    scene: Option<PathBuf>,
     /// Print the summary as JSON.
     #[arg(long)]
     json: bool,
+}
+
+/// Text of a runnable scene placing `diameters` (mm) in the specimen of `args`: seeded by
+/// random sequential addition at a fraction RSA reaches easily, then grown (relative growth
+/// keeps the size ratios) until the packing fraction of the drawn sizes, which the kernel
+/// meets exactly.
+pub fn scene_text(
+    args: &TakeArgs,
+    name: &str,
+    diameters: &[f64],
+    phi: f64,
+) -> Result<String, String> {
+    use std::fmt::Write as _;
+    let container = match (&args.r#box, &args.cylinder) {
+        (Some(b), None) if b.len() == 3 => format!(
+            "type = \"box\"\nsize = [{}, {}, {}]\nperiodic = [false, false, false]   # concrete specimen: rigid walls",
+            b[0], b[1], b[2]
+        ),
+        (None, Some(c)) if c.len() == 2 => format!(
+            "type = \"cylinder\"\nradius = {}\nheight = {}",
+            c[0], c[1]
+        ),
+        _ => return Err("--scene needs the specimen as --box X,Y,Z or --cylinder R,H".into()),
+    };
+    let seeding = (0.8 * phi).min(0.3);
+    let mut t = String::new();
+    let _ = writeln!(
+        t,
+        "# densepack scene written by `densepack take {} --phi-m {} --d-min {} --seed {}`.\n\
+         # Grading curve: {name}. {} aggregates drawn (take phase, Algorithm 1), φ = {phi:.6}.\n\
+         # Lengths in mm. Seeded by RSA at φ = {seeding:.4} (all diameters scaled by one factor),\n\
+         # then grown at a relative rate until φ = {phi:.6}: back to the drawn diameters exactly.\n",
+        args.curve,
+        args.phi_m,
+        args.d_min,
+        args.seed,
+        diameters.len()
+    );
+    let _ = writeln!(t, "seed = {}\n\n[container]\n{container}\n", args.seed);
+    let _ = writeln!(
+        t,
+        "[particles]\npacking_fraction = {seeding}\ncomponents = ["
+    );
+    for d in diameters {
+        let _ = writeln!(t, "  {{ count = 1, diameter = {d} }},");
+    }
+    let _ = writeln!(
+        t,
+        "]\n\n[[stage]]\ngrowth = \"relative\"\nrate = 0.05\nuntil = {{ packing_fraction = {phi} }}\n\
+         max_wall_seconds = 3600"
+    );
+    densepack::io::scene::Scene::from_toml(&t)
+        .map_err(|e| format!("the scene for these sizes is not runnable: {e}"))?;
+    Ok(t)
 }
 
 /// Parses a grading curve given as a DIN name, `fuller:Q:D_MAX` or a TOML file with a
@@ -119,23 +177,34 @@ pub fn run(args: &TakeArgs) -> ExitCode {
     };
     let s = take.summary();
     let mut drawn = None;
-    if let Some(path) = &args.sizes {
+    if args.sizes.is_some() || args.scene.is_some() {
         let diameters = take.sample(&mut Xoshiro256PlusPlus::seed_from_u64(args.seed));
-        let written = write_atomically(path, |w| {
-            for d in &diameters {
-                writeln!(w, "{d}")?;
-            }
-            Ok(())
-        });
-        if let Err(e) = written {
-            eprintln!("error: {}: {e}", path.display());
-            return ExitCode::from(1);
-        }
         let volume: f64 = diameters
             .iter()
             .map(|d| std::f64::consts::PI / 6.0 * d.powi(3))
             .sum();
-        drawn = Some((diameters.len(), volume / s.container_volume));
+        let phi = volume / s.container_volume;
+        drawn = Some((diameters.len(), phi));
+        let mut files: Vec<(&PathBuf, String)> = Vec::new();
+        if let Some(path) = &args.sizes {
+            let text: String = diameters.iter().map(|d| format!("{d}\n")).collect();
+            files.push((path, text));
+        }
+        if let Some(path) = &args.scene {
+            match scene_text(args, &name, &diameters, phi) {
+                Ok(text) => files.push((path, text)),
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return ExitCode::from(2);
+                }
+            }
+        }
+        for (path, text) in files {
+            if let Err(e) = write_atomically(path, |w| w.write_all(text.as_bytes())) {
+                eprintln!("error: {}: {e}", path.display());
+                return ExitCode::from(1);
+            }
+        }
     }
     if args.json {
         let json = serde_json::json!({
@@ -188,12 +257,14 @@ pub fn run(args: &TakeArgs) -> ExitCode {
         if s.phi_eff > s.edmd_reachable_phi_eff {
             println!("warning             φ_eff is above what EDMD reached in that reference");
         }
-        if let (Some((n, phi)), Some(path)) = (drawn, &args.sizes) {
+        if let Some((n, phi)) = drawn {
             println!(
-                "drawn               {n} diameters (seed {}), φ = {phi:.4}, written to {}",
-                args.seed,
-                path.display()
+                "drawn               {n} diameters (seed {}), φ = {phi:.4}",
+                args.seed
             );
+        }
+        for path in [&args.sizes, &args.scene].into_iter().flatten() {
+            println!("wrote               {}", path.display());
         }
     }
     ExitCode::SUCCESS
