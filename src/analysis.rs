@@ -51,7 +51,7 @@ pub struct SievePoint {
 
 /// Diameter used for sieving a particle (the smallest square mesh it passes, for a sphere its
 /// diameter).
-fn sieve_diameter(p: &ParticleRecord) -> f64 {
+pub fn sieve_diameter(p: &ParticleRecord) -> f64 {
     match p {
         ParticleRecord::Sphere { radius, .. } => 2.0 * radius,
     }

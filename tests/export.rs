@@ -68,6 +68,7 @@ fn bad_export_options_fail_with_exit_code_2_name_the_option_and_write_nothing() 
 }
 
 #[test]
+#[allow(irrefutable_let_patterns)] // spheres are the only particles today
 fn csv_export_round_trips_every_sphere_bit_for_bit() {
     let (dir, packing) = packing_file("csv");
     let out = dir.join("p.csv");
@@ -89,7 +90,9 @@ fn csv_export_round_trips_every_sphere_bit_for_bit() {
         .collect();
     assert_eq!(rows.len(), packing.particles.len());
     for (row, p) in rows.iter().zip(&packing.particles) {
-        let densepack::io::packing::ParticleRecord::Sphere { center, radius } = p;
+        let densepack::io::packing::ParticleRecord::Sphere { center, radius } = p else {
+            panic!("the packing holds only spheres");
+        };
         assert_eq!(row, &vec![center[0], center[1], center[2], *radius]);
     }
 }

@@ -1,7 +1,7 @@
 //! `densepack verify PACKING.json`: the independent check and a description of the packing.
 
-use densepack::analysis::{gap_histogram, sieve_curve};
-use densepack::io::packing::{Packing, ParticleRecord};
+use densepack::analysis::{gap_histogram, sieve_curve, sieve_diameter};
+use densepack::io::packing::Packing;
 use std::path::Path;
 use std::process::ExitCode;
 
@@ -21,9 +21,7 @@ pub fn run(path: &Path, json: bool, grading: Option<&str>, d_min: Option<f64>) -
                 let smallest = packing
                     .particles
                     .iter()
-                    .map(|p| match p {
-                        ParticleRecord::Sphere { radius, .. } => 2.0 * radius,
-                    })
+                    .map(sieve_diameter)
                     .fold(f64::INFINITY, f64::min);
                 let d_min = d_min.unwrap_or(smallest);
                 if !(d_min > 0.0 && d_min < curve.d_max()) {
