@@ -51,6 +51,10 @@ pub struct ExportArgs {
     /// Voxel formats: what a label means.
     #[arg(long, value_enum, default_value_t = LabelsArg::Phase)]
     labels: LabelsArg,
+    /// Voxel formats: write float32 solid fractions per voxel from S³ sample points (composite
+    /// voxels, 1..=16) instead of labels.
+    #[arg(long, conflicts_with = "labels")]
+    partial_volume: Option<usize>,
     /// Gmsh: thickness of interface shells around the particles (physical volume "interface").
     #[arg(long)]
     interface: Option<f64>,
@@ -88,8 +92,12 @@ fn reject_unused(args: &ExportArgs) -> Result<(), ExportError> {
                 .into(),
         });
     }
-    if !voxel && (args.voxels != 128 || !matches!(args.labels, LabelsArg::Phase)) {
-        return Err(invalid("--voxels/--labels", "npy or raw"));
+    if !voxel
+        && (args.voxels != 128
+            || !matches!(args.labels, LabelsArg::Phase)
+            || args.partial_volume.is_some())
+    {
+        return Err(invalid("--voxels/--labels/--partial-volume", "npy or raw"));
     }
     Ok(())
 }
@@ -125,9 +133,10 @@ pub fn run(args: &ExportArgs) -> ExitCode {
             &packing,
             &VoxelOptions {
                 voxels: args.voxels,
-                labels: match args.labels {
-                    LabelsArg::Phase => Labels::Phase,
-                    LabelsArg::Particle => Labels::Particle,
+                labels: match (args.partial_volume, args.labels) {
+                    (Some(samples), _) => Labels::PartialVolume(samples),
+                    (None, LabelsArg::Phase) => Labels::Phase,
+                    (None, LabelsArg::Particle) => Labels::Particle,
                 },
                 npy: matches!(args.format, FormatArg::Npy),
             },

@@ -71,6 +71,8 @@ for packing in periodic cylinder; do
   run_check "npy $packing" python3 "$check" npy "$work/$packing.json" "$work/$packing.npy"
   "$bin" export "$work/$packing.json" --format raw --labels particle --voxels 40 --out "$work/$packing.raw" >/dev/null
   run_check "raw $packing" python3 "$check" raw "$work/$packing.json" "$work/$packing.raw"
+  "$bin" export "$work/$packing.json" --format npy --partial-volume 3 --voxels 24 --out "$work/$packing.pv.npy" >/dev/null
+  run_check "partial volume $packing" python3 "$check" npy "$work/$packing.json" "$work/$packing.pv.npy"
 done
 
 echo "exports: $passed passed, 0 failed"

@@ -6,7 +6,9 @@
 //! (periodic axes wrap: a particle cut by a face labels voxels on both sides). Labels:
 //!
 //! - [`Labels::Phase`] (`uint8`): 0 matrix, 1 sphere, 255 outside the container (cylinders);
-//! - [`Labels::Particle`] (`uint32`): 0 matrix, particle index + 1, `2³² − 1` outside.
+//! - [`Labels::Particle`] (`uint32`): 0 matrix, particle index + 1, `2³² − 1` outside;
+//! - [`Labels::PartialVolume`] (`float32`): the solid fraction of each voxel estimated from
+//!   `s³` sample points (composite voxels), −1 outside.
 //!
 //! Layout: C order with shape `[n_x, n_y, n_z]` (z fastest, `index = (i n_y + j) n_z + k`),
 //! little endian, so `numpy.load(f)[i, j, k]` is the voxel at `(x_i, y_j, z_k)`. The sidecar
@@ -34,6 +36,9 @@ pub enum Labels {
     Phase,
     /// Particle index + 1 (`uint32`).
     Particle,
+    /// Solid volume fraction of the voxel from `s³` sample points (`float32`, −1 outside a
+    /// cylinder container): composite voxels ([`partial_volume`]).
+    PartialVolume(usize),
 }
 
 /// Label of voxels outside a cylinder container, [`Labels::Phase`].
@@ -132,36 +137,75 @@ pub fn voxelize<T: Copy>(
             }
         }
     }
+    for_each_inside_sample(packing, grid, 1, |particle, voxel| {
+        image[voxel] = label(particle, &packing.particles[particle]);
+    });
+    image
+}
+
+/// Calls `visit(particle index, flat voxel index)` for every sample point inside a particle.
+/// Each voxel holds `s³` sample points `origin + (index + (m + ½)/s) · spacing`,
+/// `m = 0 … s−1` per axis (`s = 1`: the voxel centre); periodic axes wrap.
+fn for_each_inside_sample(
+    packing: &Packing,
+    grid: &Grid,
+    s: usize,
+    mut visit: impl FnMut(usize, usize),
+) {
+    let [_, ny, nz] = grid.shape;
     let periodic = periodic_axes(&packing.container);
+    let sample = |k: usize, i: i64, m: usize| {
+        grid.origin[k] + (i as f64 + (m as f64 + 0.5) / s as f64) * grid.spacing[k]
+    };
+    let wrap = |k: usize, i: i64| i.rem_euclid(grid.shape[k] as i64) as usize;
     for (index, p) in packing.particles.iter().enumerate() {
-        let value = label(index, p);
         let (c, r) = bounding_sphere(p);
-        // Unwrapped index ranges of the voxel centres in the bounding box.
+        // Unwrapped index ranges of the voxels meeting the bounding box.
         let range: [(i64, i64); 3] = std::array::from_fn(|k| {
             let n = grid.shape[k] as i64;
-            let first = ((c[k] - r - grid.origin[k]) / grid.spacing[k] - 0.5).ceil() as i64;
-            let last = ((c[k] + r - grid.origin[k]) / grid.spacing[k] - 0.5).floor() as i64;
+            let first = ((c[k] - r - grid.origin[k]) / grid.spacing[k]).floor() as i64;
+            let last = ((c[k] + r - grid.origin[k]) / grid.spacing[k]).floor() as i64;
             if periodic[k] {
                 (first, last.min(first + n - 1))
             } else {
                 (first.max(0), last.min(n - 1))
             }
         });
-        let wrap = |k: usize, i: i64| i.rem_euclid(grid.shape[k] as i64) as usize;
         for i in range[0].0..=range[0].1 {
-            let x = grid.centre(0, i);
             for j in range[1].0..=range[1].1 {
-                let y = grid.centre(1, j);
                 let row = (wrap(0, i) * ny + wrap(1, j)) * nz;
                 for k in range[2].0..=range[2].1 {
-                    if contains(p, [x, y, grid.centre(2, k)]) {
-                        image[row + wrap(2, k)] = value;
+                    let voxel = row + wrap(2, k);
+                    for (mi, mj, mk) in (0..s * s * s).map(|m| (m / (s * s), m / s % s, m % s)) {
+                        if contains(p, [sample(0, i, mi), sample(1, j, mj), sample(2, k, mk)]) {
+                            visit(index, voxel);
+                        }
                     }
                 }
             }
         }
     }
-    image
+}
+
+/// Partial-volume image: per voxel the fraction of its `s³` sample points inside particles
+/// (an estimate of the solid volume fraction of the voxel, for composite-voxel FFT schemes);
+/// voxels outside a cylinder container get −1.
+pub fn partial_volume(packing: &Packing, grid: &Grid, s: usize) -> Vec<f32> {
+    let mut counts = vec![0u32; grid.len()];
+    for_each_inside_sample(packing, grid, s, |_, voxel| counts[voxel] += 1);
+    let outside = voxelize(packing, grid, false, true, |_, _| false);
+    let per_sample = 1.0 / (s * s * s) as f64;
+    counts
+        .iter()
+        .zip(&outside)
+        .map(|(&n, &out)| {
+            if out {
+                -1.0
+            } else {
+                (f64::from(n) * per_sample) as f32
+            }
+        })
+        .collect()
 }
 
 /// First-order bound on `|φ_voxels − φ|`: total particle surface × half the voxel diagonal /
@@ -257,7 +301,12 @@ pub fn write_voxels(
                 .iter()
                 .filter(|&&v| v != 0 && v != OUTSIDE_PHASE)
                 .count();
-            ("uint8", "|u1", count, serde_json::Value::Object(names))
+            (
+                "uint8",
+                "|u1",
+                count as f64,
+                serde_json::Value::Object(names),
+            )
         }
         Labels::Particle => {
             let image = voxelize(packing, &grid, 0u32, OUTSIDE_PARTICLE, |i, _| i as u32 + 1);
@@ -279,15 +328,52 @@ pub fn write_voxels(
                 "i + 1": "particle i (packing order)",
                 OUTSIDE_PARTICLE.to_string(): "outside the container",
             });
-            ("uint32", "<u4", count, meaning)
+            ("uint32", "<u4", count as f64, meaning)
+        }
+        Labels::PartialVolume(samples) => {
+            if samples == 0 || samples > 16 {
+                return Err(ExportError::Invalid {
+                    option: "--partial-volume",
+                    message: format!("= {samples} is outside the allowed range 1..=16"),
+                });
+            }
+            let image = partial_volume(packing, &grid, samples);
+            super::write_file(path, |w| {
+                if opts.npy {
+                    w.write_all(&npy_header("<f4", grid.shape))?;
+                }
+                for v in &image {
+                    w.write_all(&v.to_le_bytes())?;
+                }
+                Ok(())
+            })?;
+            let solid: f64 = image
+                .iter()
+                .filter(|&&v| v > 0.0)
+                .map(|&v| f64::from(v))
+                .sum();
+            let meaning = serde_json::json!({
+                "value": format!(
+                    "fraction of the voxel's {samples}³ sample points (x_i + (m + 0.5)/{samples} \
+                     spacing) inside particles"
+                ),
+                "samples_per_axis": samples,
+                "-1": "outside the container (voxel centre outside the cylinder)",
+            });
+            ("float32", "<f4", solid, meaning)
         }
     };
     let summary = VoxelSummary {
         grid,
         packing_fraction_exact: packing_fraction(packing),
-        packing_fraction_voxels: particle_voxels as f64 * voxel_volume
+        packing_fraction_voxels: particle_voxels * voxel_volume
             / container_volume(&packing.container),
-        resolution_bound: resolution_bound(packing, &grid),
+        // Sample points `s` times denser than the voxels: the bound of that finer grid.
+        resolution_bound: resolution_bound(packing, &grid)
+            / match opts.labels {
+                Labels::PartialVolume(samples) => samples as f64,
+                Labels::Phase | Labels::Particle => 1.0,
+            },
         sidecar: sidecar_path(path),
     };
     let sidecar = serde_json::json!({
@@ -403,6 +489,23 @@ mod tests {
                 "{voxels}: {phi} vs {exact} (bound {bound})"
             );
         }
+    }
+
+    #[test]
+    fn partial_volumes_lie_in_0_1_and_sum_to_the_sphere_volume_within_the_finer_bound() {
+        let p = packing(cube(true), vec![sphere([9.3, 5.2, 0.4], 2.2)]); // wraps in x and z
+        let exact = 4.0 / 3.0 * std::f64::consts::PI * 2.2f64.powi(3);
+        let grid = Grid::new(&p.container, 20).unwrap();
+        let samples = 4;
+        let image = partial_volume(&p, &grid, samples);
+        assert!(image.iter().all(|&v| (0.0..=1.0).contains(&v)));
+        assert!(image.iter().any(|&v| v > 0.0 && v < 1.0)); // composite voxels at the surface
+        let volume: f64 = image.iter().map(|&v| f64::from(v)).sum::<f64>() * 0.125;
+        let bound = resolution_bound(&p, &grid) / samples as f64 * 1000.0;
+        assert!(
+            (volume - exact).abs() <= bound,
+            "{volume} vs {exact} (bound {bound})"
+        );
     }
 
     #[test]
