@@ -27,7 +27,7 @@ if ! python3 -c "import numpy, meshio" >/dev/null 2>&1; then
 fi
 
 bin=target/release/densepack
-[ -x "$bin" ] || cargo build --release
+cargo build --release --quiet   # no-op after `cargo test --release`
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 check=tests/readers/check_exports.py
