@@ -159,7 +159,7 @@ fn face_offsets(
 
 /// Checks the options against the packing: shrink in range, shells that neither overlap each
 /// other nor leave the container (checked by [`crate::verify`] on the inflated particles).
-fn check(packing: &Packing, opts: &GmshOptions) -> Result<(), ExportError> {
+fn check(packing: &Packing, opts: &GmshOptions) -> Result<GmshReport, ExportError> {
     if !(opts.shrink >= 0.0 && opts.shrink < 1.0) {
         return Err(ExportError::Invalid {
             option: "--shrink",
@@ -181,26 +181,56 @@ fn check(packing: &Packing, opts: &GmshOptions) -> Result<(), ExportError> {
                 message: format!("= {t} must be a finite number > 0"),
             });
         }
-        let mut inflated = packing.clone();
-        inflated.min_gap = 0.0;
-        for p in &mut inflated.particles {
-            let (_, r) = bounding_sphere(p);
-            *p = scaled(p, ((1.0 - opts.shrink) * r + t) / r);
-        }
-        let v = crate::verify::verify(&inflated);
-        if !v.ok() {
-            return Err(ExportError::Invalid {
-                option: "--interface",
-                message: format!(
-                    "shells of thickness {t} overlap or leave the container ({} violations, \
-                     first: {}); use a thinner shell or a larger --shrink",
-                    v.violation_count,
-                    v.violations.first().map_or("", String::as_str)
-                ),
-            });
-        }
     }
-    Ok(())
+    // The outermost exported surfaces (shrunk particles, or their shells) must not overlap
+    // or leave the container; their narrowest gap tells whether a mesher can resolve it.
+    let shell = opts.interface_thickness.unwrap_or(0.0);
+    let mut outer = packing.clone();
+    outer.min_gap = 0.0;
+    for p in &mut outer.particles {
+        let (_, r) = bounding_sphere(p);
+        *p = scaled(p, ((1.0 - opts.shrink) * r + shell) / r);
+    }
+    let v = crate::verify::verify(&outer);
+    if !v.ok() {
+        return Err(ExportError::Invalid {
+            option: "--interface",
+            message: format!(
+                "shells of thickness {shell} overlap or leave the container ({} violations, \
+                 first: {}); use a thinner shell or a larger --shrink",
+                v.violation_count,
+                v.violations.first().map_or("", String::as_str)
+            ),
+        });
+    }
+    let narrowest = [v.min_pair_gap, v.min_wall_gap]
+        .into_iter()
+        .flatten()
+        .fold(None, |m: Option<f64>, g| Some(m.map_or(g, |m| m.min(g))));
+    Ok(GmshReport {
+        mesh_size: opts
+            .mesh_size
+            .unwrap_or_else(|| default_mesh_size(packing, opts)),
+        narrowest_gap: narrowest,
+    })
+}
+
+/// Half the mean particle radius after shrinking.
+fn default_mesh_size(packing: &Packing, opts: &GmshOptions) -> f64 {
+    let n = packing.particles.len().max(1) as f64;
+    let sum: f64 = packing.particles.iter().map(|p| bounding_sphere(p).1).sum();
+    0.5 * sum / n * (1.0 - opts.shrink)
+}
+
+/// What the export found out about meshability.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GmshReport {
+    /// Largest element size written (`Mesh.MeshSizeMax`).
+    pub mesh_size: f64,
+    /// Narrowest gap between exported surfaces (particles or shells, after shrinking), pair
+    /// or wall; `None` without neighbours or walls. Much below the mesh size, meshing will be
+    /// slow or fail: shrink the particles.
+    pub narrowest_gap: Option<f64>,
 }
 
 /// Writes the `.geo` script for `packing` to `path`.
@@ -208,12 +238,18 @@ pub fn write_geo(
     packing: &Packing,
     opts: &GmshOptions,
     path: &std::path::Path,
-) -> Result<(), ExportError> {
-    check(packing, opts)?;
-    super::write_file(path, |w| geo(packing, opts, w))
+) -> Result<GmshReport, ExportError> {
+    let report = check(packing, opts)?;
+    super::write_file(path, |w| geo(packing, opts, report.mesh_size, w))?;
+    Ok(report)
 }
 
-fn geo(packing: &Packing, opts: &GmshOptions, w: &mut impl Write) -> std::io::Result<()> {
+fn geo(
+    packing: &Packing,
+    opts: &GmshOptions,
+    mesh_size: f64,
+    w: &mut impl Write,
+) -> std::io::Result<()> {
     let (lo0, hi0) = container_bounds(&packing.container);
     let periodic = periodic_axes(&packing.container);
     let scale = 1.0 - opts.shrink;
@@ -231,15 +267,6 @@ fn geo(packing: &Packing, opts: &GmshOptions, w: &mut impl Write) -> std::io::Re
     let hi: [f64; 3] = std::array::from_fn(|k| hi0[k] + offset[k]);
     let extent = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
     let eps = 1e-6 * extent;
-    let n = packing.particles.len().max(1) as f64;
-    let mean_radius = packing
-        .particles
-        .iter()
-        .map(|p| bounding_sphere(p).1)
-        .sum::<f64>()
-        / n
-        * scale;
-    let mesh_size = opts.mesh_size.unwrap_or(0.5 * mean_radius);
 
     writeln!(w, "// {}", provenance_line(packing))?;
     writeln!(
