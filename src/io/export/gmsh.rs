@@ -483,6 +483,37 @@ mod tests {
     use super::*;
 
     #[test]
+    fn the_narrowest_gap_is_measured_after_shrinking_and_overlapping_shells_are_refused() {
+        // Radii 1 and 2, centres 3.5 apart in a walled 10-cube. Shrunk by 10 %: radii 0.9
+        // and 1.8, pair gap 3.5 − 2.7 = 0.8; wall gaps 2 − 0.9 = 1.1 and 10 − 5.5 − 1.8 = 2.7.
+        let packing: Packing = serde_json::from_str(
+            r#"{"format": "densepack-packing", "version": 1,
+                "container": {"type": "box", "min": [0,0,0], "max": [10,10,10], "periodic": [false,false,false]},
+                "particles": [{"type": "sphere", "center": [2, 5, 5], "radius": 1},
+                              {"type": "sphere", "center": [5.5, 5, 5], "radius": 2}],
+                "min_gap": 0, "seed": 0,
+                "stats": {"packing_fraction": 0, "reduced_pressure": 0, "events": 0,
+                          "collisions": 0, "wall_seconds": 0, "stop_reason": ""}}"#,
+        )
+        .unwrap();
+        let opts = GmshOptions {
+            shrink: 0.1,
+            ..Default::default()
+        };
+        let report = check(&packing, &opts).unwrap();
+        assert!((report.narrowest_gap.unwrap() - 0.8).abs() < 1e-12);
+        assert!((report.mesh_size - 0.5 * 1.5 * 0.9).abs() < 1e-12);
+        // Shells of 0.3 leave 0.8 − 0.6 = 0.2 between them; 0.5 would overlap.
+        let shells = |t: f64| GmshOptions {
+            interface_thickness: Some(t),
+            ..opts
+        };
+        let report = check(&packing, &shells(0.3)).unwrap();
+        assert!((report.narrowest_gap.unwrap() - 0.2).abs() < 1e-12);
+        assert!(check(&packing, &shells(0.5)).is_err());
+    }
+
+    #[test]
     fn periodic_faces_go_to_the_middle_of_the_widest_gap_between_particle_extremes() {
         // Extremes along x at 0.5..1.5 and 9.5..10.5 ≡ 9.5..0.5 (mod 10): the covered set is
         // 9.5..1.5, so the widest gap is 1.5..9.5 and the face goes to 5.5, clearance 4.
