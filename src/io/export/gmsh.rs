@@ -64,6 +64,19 @@ fn solid_statement(s: &Solid, scale: f64, tag: usize) -> String {
     }
 }
 
+/// The `.geo` statement creating the box `[lo, hi]` as volume `tag`.
+fn box_statement(tag: usize, lo: [f64; 3], hi: [f64; 3]) -> String {
+    format!(
+        "Box({tag}) = {{{}, {}, {}, {}, {}, {}}};",
+        lo[0],
+        lo[1],
+        lo[2],
+        hi[0] - lo[0],
+        hi[1] - lo[1],
+        hi[2] - lo[2]
+    )
+}
+
 /// The particle with its size scaled by `scale` about its centre.
 fn scaled(p: &ParticleRecord, scale: f64) -> ParticleRecord {
     match p {
@@ -297,16 +310,7 @@ fn geo(
     writeln!(w, "SetFactory(\"OpenCASCADE\");")?;
     writeln!(w, "eps = {eps};")?;
     match &packing.container {
-        ContainerRecord::Box { .. } => writeln!(
-            w,
-            "Box(1) = {{{}, {}, {}, {}, {}, {}}};",
-            lo[0],
-            lo[1],
-            lo[2],
-            hi[0] - lo[0],
-            hi[1] - lo[1],
-            hi[2] - lo[2]
-        )?,
+        ContainerRecord::Box { .. } => writeln!(w, "{}", box_statement(1, lo, hi))?,
         ContainerRecord::Cylinder {
             base_center: b,
             radius,
@@ -351,16 +355,7 @@ fn geo(
         }
     }
     if clip {
-        writeln!(
-            w,
-            "Box(2) = {{{}, {}, {}, {}, {}, {}}};",
-            lo[0],
-            lo[1],
-            lo[2],
-            hi[0] - lo[0],
-            hi[1] - lo[1],
-            hi[2] - lo[2]
-        )?;
+        writeln!(w, "{}", box_statement(2, lo, hi))?;
     }
     let first_core = if clip { 3 } else { 2 };
     for (k, solid) in cores.iter().enumerate() {
@@ -393,16 +388,7 @@ fn geo(
         let last_shell = first_shell + shells.len() - 1;
         if clip {
             let clip_tag = last_shell + 1;
-            writeln!(
-                w,
-                "Box({clip_tag}) = {{{}, {}, {}, {}, {}, {}}};",
-                lo[0],
-                lo[1],
-                lo[2],
-                hi[0] - lo[0],
-                hi[1] - lo[1],
-                hi[2] - lo[2]
-            )?;
+            writeln!(w, "{}", box_statement(clip_tag, lo, hi))?;
             writeln!(
                 w,
                 "outer() = BooleanIntersection{{ Volume{{{first_shell}:{last_shell}}}; Delete; }}{{ Volume{{{clip_tag}}}; Delete; }};"
