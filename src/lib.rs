@@ -1,6 +1,7 @@
 //! densepack: dense random packings of hard particles.
 #![warn(missing_docs)]
 
+pub mod analysis;
 pub mod boundary;
 pub mod geometry;
 pub mod io;

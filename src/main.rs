@@ -1,10 +1,11 @@
 //! The `densepack` command line. Thin: parses, calls the library, prints.
 
+mod cli;
+
 use clap::{Parser, Subcommand};
-use densepack::io::packing::Packing;
 use densepack::io::scene::{AnyScene, MixtureScene, Scene};
-use densepack::kernel::StageReport;
-use densepack::run::{run_mixture as run_mixture_scene, run_scene, RunError};
+use densepack::kernel::{Progress, StageReport};
+use densepack::run::{run_mixture as run_mixture_scene, run_scene_observed, RunError};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -34,6 +35,10 @@ enum Command {
         /// Print nothing but errors.
         #[arg(long)]
         quiet: bool,
+        /// Progress as one JSON object per line on stderr (about 4 a second, plus one per
+        /// finished stage) instead of the live line.
+        #[arg(long)]
+        log_json: bool,
     },
     /// Check a packing for overlaps, gaps and containment, independently of the simulation.
     Verify {
@@ -42,7 +47,21 @@ enum Command {
         /// Print the report as JSON.
         #[arg(long)]
         json: bool,
+        /// Also compare the sieve curve of the spheres with this grading curve (a DIN name,
+        /// fuller:Q:D_MAX or a TOML file with a `grading` table).
+        #[arg(long)]
+        grading: Option<String>,
+        /// Cut-off diameter of the grading comparison (default: the smallest sphere).
+        #[arg(long, requires = "grading")]
+        d_min: Option<f64>,
     },
+    /// Export a packing for meshing (Gmsh), visualisation (VTK), FFT (voxels) or tables (CSV).
+    Export(cli::export::ExportArgs),
+    /// Dry run of the take phase: grading curve → expected particle count, φ_eff, memory;
+    /// optionally the drawn diameters.
+    Take(cli::take::TakeArgs),
+    /// Write a commented sample scene.
+    Init(cli::init::InitArgs),
 }
 
 fn main() -> ExitCode {
@@ -51,9 +70,14 @@ fn main() -> ExitCode {
         None => {
             println!("densepack: running the embedded default scene (10 000 equal spheres, periodic, grown to jamming)");
             let scene = Scene::from_toml(DEFAULT_SCENE).expect("the embedded scene is valid");
-            run(&scene, None, false)
+            run(&scene, None, false, false)
         }
-        Some(Command::Run { scene, out, quiet }) => {
+        Some(Command::Run {
+            scene,
+            out,
+            quiet,
+            log_json,
+        }) => {
             let text = match std::fs::read_to_string(&scene) {
                 Ok(t) => t,
                 Err(e) => {
@@ -62,7 +86,7 @@ fn main() -> ExitCode {
                 }
             };
             match AnyScene::from_toml(&text) {
-                Ok(AnyScene::Spheres(s)) => run(&s, Some(out), quiet),
+                Ok(AnyScene::Spheres(s)) => run(&s, Some(out), quiet, log_json),
                 Ok(AnyScene::Mixture(s)) => run_mixture(&s, &out, quiet),
                 Err(e) => {
                     eprintln!("error: {}: {e}", scene.display());
@@ -70,29 +94,28 @@ fn main() -> ExitCode {
                 }
             }
         }
-        Some(Command::Verify { packing, json }) => verify(&packing, json),
+        Some(Command::Verify {
+            packing,
+            json,
+            grading,
+            d_min,
+        }) => cli::verify::run(&packing, json, grading.as_deref(), d_min),
+        Some(Command::Export(args)) => cli::export::run(&args),
+        Some(Command::Take(args)) => cli::take::run(&args),
+        Some(Command::Init(args)) => cli::init::run(&args),
     }
 }
 
-fn print_stage(k: usize, r: &StageReport) {
-    eprintln!(
-        "stage {k}: {} after {} events ({} collisions) in {:.2} s, φ = {:.6}, Z = {:.4e}",
-        r.stop_reason.as_str(),
-        r.counts.events,
-        r.counts.collisions,
-        r.wall_seconds,
-        r.packing_fraction,
-        r.reduced_pressure
+fn run(scene: &Scene, out: Option<PathBuf>, quiet: bool, log_json: bool) -> ExitCode {
+    let reporter = std::cell::RefCell::new(cli::progress::Reporter::new(quiet, log_json));
+    let result = run_scene_observed(
+        scene,
+        &mut |k: usize, r: &StageReport| reporter.borrow_mut().stage_done(k, r),
+        &mut |k: usize, p: &Progress| reporter.borrow_mut().progress(k, p),
     );
-}
-
-fn run(scene: &Scene, out: Option<PathBuf>, quiet: bool) -> ExitCode {
-    let mut on_stage = |k: usize, r: &StageReport| {
-        if !quiet {
-            print_stage(k, r);
-        }
-    };
-    match run_scene(scene, &mut on_stage) {
+    let reporter = reporter.into_inner();
+    reporter.finish();
+    match result {
         Ok(outcome) => {
             let s = &outcome.packing.stats;
             if !quiet {
@@ -165,40 +188,5 @@ fn run_mixture(scene: &MixtureScene, out: &std::path::Path, quiet: bool) -> Exit
             eprintln!("no packing written");
             ExitCode::from(1)
         }
-    }
-}
-
-fn verify(path: &std::path::Path, json: bool) -> ExitCode {
-    let packing = match Packing::read(path) {
-        Ok(p) => p,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::from(2);
-        }
-    };
-    let v = densepack::verify::verify(&packing);
-    if json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&v).expect("serialisable")
-        );
-    } else {
-        println!(
-            "particles {}  packing_fraction {:.6}  min pair gap {:.3e} (relative {:.3e})  min wall gap {}  violations {}",
-            v.particles,
-            v.packing_fraction,
-            v.min_pair_gap.unwrap_or(f64::NAN),
-            v.min_pair_gap_relative.unwrap_or(f64::NAN),
-            v.min_wall_gap.map_or("none".into(), |g| format!("{g:.3e}")),
-            v.violation_count
-        );
-        for msg in &v.violations {
-            println!("  {msg}");
-        }
-    }
-    if v.ok() {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::from(1)
     }
 }

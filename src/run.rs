@@ -4,9 +4,11 @@
 //! monomorphised for them: a fully periodic box gets [`PeriodicBox`] (no wall code at all).
 
 use crate::boundary::{Boundary, CylinderContainer, PeriodicBox, WalledBox};
-use crate::io::packing::{ContainerRecord, Packing, PackingStats, ParticleRecord, FORMAT};
+use crate::io::packing::{
+    ContainerRecord, Packing, PackingStats, ParticleRecord, Provenance, Timings, FORMAT,
+};
 use crate::io::scene::{ContainerSpec, Method, Scene};
-use crate::kernel::{Edmd, KernelConfig, StageReport, StopReason};
+use crate::kernel::{Edmd, KernelConfig, Progress, StageReport, StopReason};
 use crate::protocol::rsa::{rsa_spheres, RsaFailure};
 use crate::queue::{CalendarQueue, EventQueue, HeapQueue, QueueKind};
 use crate::shape::{Sphere, Vec3};
@@ -60,6 +62,16 @@ pub fn run_scene(
     scene: &Scene,
     on_stage: &mut dyn FnMut(usize, &StageReport),
 ) -> Result<RunOutcome, RunError> {
+    run_scene_observed(scene, on_stage, &mut |_, _| {})
+}
+
+/// [`run_scene`], also telling `on_progress` the stage index and its [`Progress`] at every
+/// time barrier (throttle in the observer: barriers can come thousands of times a second).
+pub fn run_scene_observed(
+    scene: &Scene,
+    on_stage: &mut dyn FnMut(usize, &StageReport),
+    on_progress: &mut dyn FnMut(usize, &Progress),
+) -> Result<RunOutcome, RunError> {
     match &scene.container {
         ContainerSpec::Box {
             min,
@@ -69,14 +81,14 @@ pub fn run_scene(
             let min = Vec3::from(*min);
             let len = Vec3::from(*size);
             if periodic.iter().all(|&p| p) {
-                dispatch_queue(scene, PeriodicBox { min, len }, on_stage)
+                dispatch_queue(scene, PeriodicBox { min, len }, on_stage, on_progress)
             } else {
                 let walled = WalledBox {
                     min,
                     max: min + len,
                     periodic: *periodic,
                 };
-                dispatch_queue(scene, walled, on_stage)
+                dispatch_queue(scene, walled, on_stage, on_progress)
             }
         }
         ContainerSpec::Cylinder {
@@ -89,7 +101,7 @@ pub fn run_scene(
                 radius: *radius,
                 height: *height,
             };
-            dispatch_queue(scene, cylinder, on_stage)
+            dispatch_queue(scene, cylinder, on_stage, on_progress)
         }
     }
 }
@@ -98,10 +110,11 @@ fn dispatch_queue<B: Boundary + SceneContainer>(
     scene: &Scene,
     boundary: B,
     on_stage: &mut dyn FnMut(usize, &StageReport),
+    on_progress: &mut dyn FnMut(usize, &Progress),
 ) -> Result<RunOutcome, RunError> {
     match scene.queue {
-        QueueKind::Heap => run_with::<B, HeapQueue>(scene, boundary, on_stage),
-        QueueKind::Calendar => run_with::<B, CalendarQueue>(scene, boundary, on_stage),
+        QueueKind::Heap => run_with::<B, HeapQueue>(scene, boundary, on_stage, on_progress),
+        QueueKind::Calendar => run_with::<B, CalendarQueue>(scene, boundary, on_stage, on_progress),
     }
 }
 
@@ -165,6 +178,7 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
     scene: &Scene,
     boundary: B,
     on_stage: &mut dyn FnMut(usize, &StageReport),
+    on_progress: &mut dyn FnMut(usize, &Progress),
 ) -> Result<RunOutcome, RunError> {
     let started = std::time::Instant::now();
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(scene.seed);
@@ -186,6 +200,7 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
         scene.particles.rsa_max_failures,
         &mut rng,
     )?;
+    let seeding_seconds = started.elapsed().as_secs_f64();
     if scene.method == Method::Rsa {
         let placed = Placed {
             centres,
@@ -208,6 +223,7 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
             placed,
             stats,
             Vec::new(),
+            seeding_seconds,
         );
     }
     let full_size_fraction = true_diameters
@@ -241,7 +257,9 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
                 }
             }
         }
-        let report = kernel.run_stage(&spec.to_stage(full_size_fraction));
+        let report = kernel.run_stage_observed(&spec.to_stage(full_size_fraction), &mut |p| {
+            on_progress(k, p)
+        });
         on_stage(k, &report);
         // A gap stage succeeds only when its time is up (every radius gained Δd/2); jamming
         // first means the gap does not fit. Δd maximisation ends when the gap cannot grow:
@@ -320,7 +338,28 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
         min_gap,
         wall_gap,
     };
-    finish(scene, container, &original, placed, stats, reports)
+    finish(
+        scene,
+        container,
+        &original,
+        placed,
+        stats,
+        reports,
+        seeding_seconds,
+    )
+}
+
+/// Where a packing came from: this program, the resolved scene, the seed, the timings.
+fn provenance(scene: &impl serde::Serialize, seed: u64, timings: Timings) -> Provenance {
+    Provenance {
+        densepack_version: env!("CARGO_PKG_VERSION").into(),
+        seed,
+        scene: serde_json::to_value(scene).expect("a scene serialises"),
+        timings,
+        finished_unix_seconds: std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_secs()),
+    }
 }
 
 /// Radii of the kernel's spheres, in the order of the seeding.
@@ -359,6 +398,7 @@ fn finish<B: Boundary>(
     placed: Placed,
     stats: RunStats,
     stages: Vec<StageReport>,
+    seeding_seconds: f64,
 ) -> Result<RunOutcome, RunError> {
     let particles: Vec<ParticleRecord> = placed
         .centres
@@ -377,7 +417,7 @@ fn finish<B: Boundary>(
         .iter()
         .map(|r| 4.0 / 3.0 * std::f64::consts::PI * r * r * r)
         .sum();
-    let packing = Packing {
+    let mut packing = Packing {
         format: FORMAT.into(),
         version: 1,
         container,
@@ -394,11 +434,22 @@ fn finish<B: Boundary>(
             stop_reason: stats.stop_reason.into(),
             extra: stats.extra,
         },
+        provenance: None,
     };
+    let verify_started = std::time::Instant::now();
     let verification = verify(&packing);
     if !verification.ok() {
         return Err(RunError::Verification(verification.violations.join("; ")));
     }
+    packing.provenance = Some(provenance(
+        scene,
+        scene.seed,
+        Timings {
+            seeding_seconds,
+            stages_seconds: stages.iter().map(|r| r.wall_seconds).sum(),
+            verification_seconds: verify_started.elapsed().as_secs_f64(),
+        },
+    ));
     Ok(RunOutcome {
         packing,
         stages,
@@ -467,6 +518,7 @@ pub fn mixture_packing(
             stop_reason: "intersection_free".into(),
             extra,
         },
+        provenance: None,
     }
 }
 
@@ -501,13 +553,23 @@ pub fn run_mixture(
         }
     };
     let seconds = start.elapsed().as_secs_f64();
-    let packing = mixture_packing(&rve, scene.seed, seconds, method, extra);
+    let mut packing = mixture_packing(&rve, scene.seed, seconds, method, extra);
+    let verify_started = std::time::Instant::now();
     let verification = verify(&packing);
     if !verification.ok() {
         return Err(MixtureRunError::Verification(
             verification.violations.join("; "),
         ));
     }
+    packing.provenance = Some(provenance(
+        scene,
+        scene.seed,
+        Timings {
+            seeding_seconds: 0.0,
+            stages_seconds: seconds,
+            verification_seconds: verify_started.elapsed().as_secs_f64(),
+        },
+    ));
     Ok(MixtureOutcome {
         packing,
         verification,

@@ -41,6 +41,11 @@ pub struct Verification {
     pub violations: Vec<String>,
     /// Total number of violations.
     pub violation_count: usize,
+    /// Per particle, the smallest relative gap `|c_i − c_j| / (r_i + r_j) − 1` to any
+    /// neighbour found by the candidate search (`+∞` when none is near); for the gap
+    /// histogram of [`crate::analysis`].
+    #[serde(skip)]
+    pub nearest_gap_relative: Vec<f64>,
 }
 
 impl Verification {
@@ -85,6 +90,7 @@ pub fn verify(packing: &Packing) -> Verification {
         min_wall_gap: None,
         violations: Vec::new(),
         violation_count: 0,
+        nearest_gap_relative: vec![f64::INFINITY; balls.len()],
     };
     let violate = |out: &mut Verification, msg: String| {
         out.violation_count += 1;
@@ -246,6 +252,8 @@ pub fn verify(packing: &Packing) -> Verification {
                         let dist = d2.sqrt();
                         let sum = bi.r + bj.r;
                         let rel = dist / sum - 1.0;
+                        out.nearest_gap_relative[i] = out.nearest_gap_relative[i].min(rel);
+                        out.nearest_gap_relative[j] = out.nearest_gap_relative[j].min(rel);
                         if out.min_pair_gap_relative.is_none_or(|m| rel < m) {
                             out.min_pair_gap_relative = Some(rel);
                         }
@@ -486,6 +494,7 @@ pub fn verify_convex(packing: &Packing) -> Verification {
         min_wall_gap: None,
         violations: Vec::new(),
         violation_count: 0,
+        nearest_gap_relative: Vec::new(),
     };
     let violate = |out: &mut Verification, msg: String| {
         out.violation_count += 1;

@@ -107,6 +107,36 @@ pub struct Packing {
     pub seed: u64,
     /// Statistics.
     pub stats: PackingStats,
+    /// Where the packing came from (absent in files written by other tools).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub provenance: Option<Provenance>,
+}
+
+/// Where a packing came from: the program, the resolved scene and seed (which reproduce the
+/// particles exactly with the same version), and where the time went.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Provenance {
+    /// Version of densepack that wrote the packing.
+    pub densepack_version: String,
+    /// Seed of the run.
+    pub seed: u64,
+    /// The scene with every default filled in (JSON form of the TOML schema).
+    pub scene: serde_json::Value,
+    /// Wall-clock timings.
+    pub timings: Timings,
+    /// When the run finished, seconds since the Unix epoch.
+    pub finished_unix_seconds: u64,
+}
+
+/// Wall-clock seconds of the phases of a run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Timings {
+    /// Seeding (random sequential addition).
+    pub seeding_seconds: f64,
+    /// All stages of the simulation.
+    pub stages_seconds: f64,
+    /// Independent verification.
+    pub verification_seconds: f64,
 }
 
 /// Format name written into every packing.

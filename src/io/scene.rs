@@ -56,10 +56,10 @@ use crate::protocol::take_phase::{GradingSpec, TakeError, TakeParams, TakePhase}
 use crate::queue::QueueKind;
 use crate::shape::{Growth, MassRule};
 use rand::Rng;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// A scene file.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Scene {
     /// Seed of the random generator (Xoshiro256++).
@@ -93,7 +93,7 @@ pub struct Scene {
 }
 
 /// The packing algorithm of a scene.
-#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 pub enum Method {
     /// Seed by RSA, then run the stages with event-driven molecular dynamics.
@@ -116,7 +116,7 @@ fn default_neighbour_skin() -> f64 {
 }
 
 /// The container of a scene.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
 pub enum ContainerSpec {
     /// An axis-aligned box.
@@ -142,7 +142,7 @@ pub enum ContainerSpec {
 }
 
 /// One size class of particles.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Component {
     /// Number of spheres.
@@ -156,7 +156,7 @@ pub struct Component {
 ///
 /// The diameters given (or drawn) are the particles' *true* sizes. They are seeded smaller,
 /// by `seed_scale` or to `packing_fraction`, and a `full_size` stage grows them back.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct ParticlesSpec {
     /// Number of equal spheres (with `diameter`).
@@ -194,7 +194,7 @@ fn default_rsa_failures() -> u64 {
 }
 
 /// Goal of a stage.
-#[derive(Clone, Debug, Default, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct UntilSpec {
     /// Packing fraction to reach.
@@ -216,7 +216,7 @@ pub struct UntilSpec {
 }
 
 /// Growth protocol names.
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 pub enum GrowthKind {
     /// No growth.
@@ -228,7 +228,7 @@ pub enum GrowthKind {
 }
 
 /// A stage of a scene.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct StageSpec {
     /// Growth protocol.
@@ -302,6 +302,34 @@ fn fraction(field: &str, x: f64) -> Result<(), SceneError> {
     }
 }
 
+/// The parser's message, plus the lines of an unknown key: inside a tagged table (such as
+/// `[container]`) the parser can only point at the table's header.
+fn locate_unknown_key(text: &str, error: toml::de::Error) -> String {
+    let message = error.to_string();
+    let Some(key) = message
+        .split("unknown field `")
+        .nth(1)
+        .and_then(|rest| rest.split('`').next())
+    else {
+        return message;
+    };
+    let lines: Vec<String> = text
+        .lines()
+        .enumerate()
+        .filter(|(_, line)| {
+            line.trim_start()
+                .strip_prefix(key)
+                .is_some_and(|rest| rest.trim_start().starts_with('='))
+        })
+        .map(|(k, _)| (k + 1).to_string())
+        .collect();
+    if lines.is_empty() {
+        message
+    } else {
+        format!("{message}(`{key}` is on line {})\n", lines.join(", "))
+    }
+}
+
 /// Densest possible packing fraction of equal spheres (Kepler, fcc/hcp): no monodisperse
 /// scene can grow past it, which bounds the largest diameter a growth run can reach.
 pub const KEPLER_FRACTION: f64 = 0.740_480_489_693_061;
@@ -309,7 +337,8 @@ pub const KEPLER_FRACTION: f64 = 0.740_480_489_693_061;
 impl Scene {
     /// Parses a scene from TOML text and validates it.
     pub fn from_toml(text: &str) -> Result<Self, SceneError> {
-        let scene: Scene = toml::from_str(text).map_err(|e| SceneError::Parse(e.to_string()))?;
+        let scene: Scene =
+            toml::from_str(text).map_err(|e| SceneError::Parse(locate_unknown_key(text, e)))?;
         scene.validate()?;
         Ok(scene)
     }
@@ -921,7 +950,7 @@ pub const DEFAULT_JAMMING_PRESSURE: f64 = 1e12;
 /// [mixture.relax]              # md only; every key optional (defaults: RelaxSettings)
 /// damping = 0.5
 /// ```
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct MixtureScene {
     /// Seed of the random generator (Xoshiro256++).
@@ -931,7 +960,7 @@ pub struct MixtureScene {
 }
 
 /// Generation method of a mixture.
-#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 pub enum MixtureMethod {
     /// Random sequential adsorption (Algorithm 5).
@@ -952,7 +981,7 @@ impl MixtureMethod {
 }
 
 /// The `[mixture]` table.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct MixtureSection {
     /// Method.
@@ -1001,7 +1030,7 @@ fn default_mixture_restarts() -> u32 {
 
 /// The `[mixture.relax]` table: each key overrides one field of
 /// [`crate::protocol::mixture::relax::RelaxSettings`].
-#[derive(Clone, Debug, Default, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct RelaxSection {
     /// Time step.

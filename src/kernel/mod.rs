@@ -54,7 +54,7 @@ mod local;
 mod stage;
 
 use local::{EventKind, LocalEvent, LocalList};
-pub use stage::{Limits, Stage, StageReport, StopReason, Until};
+pub use stage::{Limits, Progress, Stage, StageReport, StopReason, Until};
 
 use crate::boundary::{Boundary, WallId};
 use crate::queue::EventQueue;

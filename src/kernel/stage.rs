@@ -133,9 +133,37 @@ struct PressureBlock {
     kinetic_time: f64,
 }
 
+/// State of a running stage, reported at every time barrier to the observer of
+/// [`Edmd::run_stage_observed`].
+#[derive(Clone, Debug)]
+pub struct Progress {
+    /// Simulated time of the stage so far.
+    pub stage_time: f64,
+    /// Simulated time at which the goal is met, when known in advance (time or packing
+    /// fraction goals).
+    pub goal_time: Option<f64>,
+    /// Packing fraction now.
+    pub packing_fraction: f64,
+    /// Reduced pressure over the last barrier interval.
+    pub reduced_pressure: f64,
+    /// Events of the stage so far.
+    pub counts: EventCounts,
+    /// Wall-clock seconds of the stage so far.
+    pub wall_seconds: f64,
+}
+
 impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// Runs one stage from a synchronised state and leaves the kernel synchronised.
     pub fn run_stage(&mut self, stage: &Stage) -> StageReport {
+        self.run_stage_observed(stage, &mut |_| {})
+    }
+
+    /// [`Edmd::run_stage`], telling `observe` the [`Progress`] at every time barrier.
+    pub fn run_stage_observed(
+        &mut self,
+        stage: &Stage,
+        observe: &mut dyn FnMut(&Progress),
+    ) -> StageReport {
         let started = std::time::Instant::now();
         let counts_before = self.counters;
         let n = self.particles.len().max(1) as f64;
@@ -214,6 +242,14 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             self.synchronise_and_rebase(t_end);
             self.counters.barriers += 1;
             stage_time += t_end;
+            observe(&Progress {
+                stage_time,
+                goal_time: end_time,
+                packing_fraction: self.packing_fraction_at(0.0),
+                reduced_pressure: last_z,
+                counts: self.counters.since(&counts_before),
+                wall_seconds: started.elapsed().as_secs_f64(),
+            });
             if stage.thermostat && growing {
                 self.rescale_temperature();
             }

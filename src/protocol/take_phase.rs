@@ -270,7 +270,7 @@ pub enum TakeError {
 /// `ln P(d) / ln(d / d_max)` lie in 0.71–0.86 (A8), 0.41–0.64 (B8), 0.23–0.45 (C8), next
 /// to 0.73–0.84 (A16), 0.40–0.61 (B16), 0.18–0.41 (C16); the paper approximates A16, B16,
 /// C16 by Fuller curves with q = 0.7, 0.35, 0.22.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Deserialize, serde::Serialize)]
 pub enum DinCurve {
     /// Coarse curve, maximum size 8 mm.
     A8,
@@ -361,7 +361,7 @@ impl DinCurve {
 /// TOML forms: `{ kind = "fuller", q = 0.5, d_max = 16.0 }`, `{ kind = "din", name = "B16" }`,
 /// `{ kind = "table", sizes = [..], passing = [..] }` (sizes in mm, passing in %). Unknown
 /// fields are rejected.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, serde::Serialize)]
 #[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
 pub enum GradingSpec {
     /// Fuller's curve `(d / d_max)^q`.

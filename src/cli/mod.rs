@@ -1,0 +1,7 @@
+//! Subcommands of the `densepack` binary that live outside `main.rs`.
+
+pub mod export;
+pub mod init;
+pub mod progress;
+pub mod take;
+pub mod verify;

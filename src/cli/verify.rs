@@ -1,0 +1,88 @@
+//! `densepack verify PACKING.json`: the independent check and a description of the packing.
+
+use densepack::analysis::{gap_histogram, sieve_curve, sieve_diameter};
+use densepack::io::packing::Packing;
+use std::path::Path;
+use std::process::ExitCode;
+
+/// Runs `verify`; exit 1 on a violated constraint, 2 on an unreadable packing or curve.
+pub fn run(path: &Path, json: bool, grading: Option<&str>, d_min: Option<f64>) -> ExitCode {
+    let packing = match Packing::read(path) {
+        Ok(p) => p,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let sieve = match grading {
+        None => None,
+        Some(text) => match super::take::curve_of(text) {
+            Ok((curve, name)) => {
+                let smallest = packing
+                    .particles
+                    .iter()
+                    .map(sieve_diameter)
+                    .fold(f64::INFINITY, f64::min);
+                let d_min = d_min.unwrap_or(smallest);
+                if !(d_min > 0.0 && d_min < curve.d_max()) {
+                    eprintln!(
+                        "error: --d-min = {d_min} must be > 0 and below the curve's d_max = {}",
+                        curve.d_max()
+                    );
+                    return ExitCode::from(2);
+                }
+                let (points, worst) = sieve_curve(&packing, &curve, d_min);
+                Some((name, d_min, points, worst))
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(2);
+            }
+        },
+    };
+    let v = densepack::verify::verify(&packing);
+    let histogram = gap_histogram(&v.nearest_gap_relative);
+    if json {
+        let mut value = serde_json::to_value(&v).expect("serialisable");
+        value["gap_histogram"] = serde_json::json!(histogram);
+        if let Some((name, d_min, points, worst)) = &sieve {
+            value["sieve"] = serde_json::json!({
+                "curve": name, "d_min": d_min, "points": points, "max_deviation": worst,
+            });
+        }
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&value).expect("serialisable")
+        );
+    } else {
+        println!(
+            "particles {}  packing_fraction {:.6}  min pair gap {:.3e} (relative {:.3e})  min wall gap {}  violations {}",
+            v.particles,
+            v.packing_fraction,
+            v.min_pair_gap.unwrap_or(f64::NAN),
+            v.min_pair_gap_relative.unwrap_or(f64::NAN),
+            v.min_wall_gap.map_or("none".into(), |g| format!("{g:.3e}")),
+            v.violation_count
+        );
+        for msg in &v.violations {
+            println!("  {msg}");
+        }
+        println!("nearest relative gap per particle (|c_i − c_j|/(r_i + r_j) − 1):");
+        for b in histogram.iter().filter(|b| b.count > 0) {
+            println!("  [{:>8.0e}, {:>8.0e})  {}", b.lo, b.hi, b.count);
+        }
+        if let Some((name, d_min, points, worst)) = &sieve {
+            println!("sieve curve against {name}, cut off at d_min = {d_min}:");
+            println!("  {:>10}  {:>9}  {:>9}", "sieve", "passing", "target");
+            for p in points {
+                println!("  {:>10.4}  {:>9.4}  {:>9.4}", p.size, p.passing, p.target);
+            }
+            println!("  largest deviation {worst:.4}");
+        }
+    }
+    if v.ok() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    }
+}

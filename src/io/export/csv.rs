@@ -1,0 +1,53 @@
+//! CSV table of particles: a header line, then one row per particle in packing order,
+//! floats in shortest round-trip form.
+//!
+//! Columns for sphere packings: `x,y,z,r` (centre and radius). Packings with cylinders get
+//! `type,x,y,z,r,lx,ly,lz` (the half-axis vector `l`; zero for spheres).
+
+use super::ExportError;
+use crate::io::packing::{Packing, ParticleRecord};
+use std::io::Write;
+
+/// The header of a sphere packing's table.
+const SPHERE_HEADER: &str = "x,y,z,r";
+/// The header of a table with cylinders.
+const MIXED_HEADER: &str = "type,x,y,z,r,lx,ly,lz";
+
+/// One row for a particle: the sphere columns, or the mixed ones when `mixed`.
+fn row(p: &ParticleRecord, mixed: bool) -> String {
+    match p {
+        ParticleRecord::Sphere { center, radius } if !mixed => {
+            format!("{},{},{},{}", center[0], center[1], center[2], radius)
+        }
+        ParticleRecord::Sphere { center, radius } => format!(
+            "sphere,{},{},{},{},0,0,0",
+            center[0], center[1], center[2], radius
+        ),
+        ParticleRecord::Cylinder {
+            center,
+            radius,
+            half_axis: l,
+        } => format!(
+            "cylinder,{},{},{},{},{},{},{}",
+            center[0], center[1], center[2], radius, l[0], l[1], l[2]
+        ),
+    }
+}
+
+/// Writes the table to `w`.
+pub fn write_csv_to(packing: &Packing, w: &mut impl Write) -> std::io::Result<()> {
+    let mixed = packing
+        .particles
+        .iter()
+        .any(|p| !matches!(p, ParticleRecord::Sphere { .. }));
+    writeln!(w, "{}", if mixed { MIXED_HEADER } else { SPHERE_HEADER })?;
+    for p in &packing.particles {
+        writeln!(w, "{}", row(p, mixed))?;
+    }
+    Ok(())
+}
+
+/// Writes the table to `path` (atomically).
+pub fn write_csv(packing: &Packing, path: &std::path::Path) -> Result<(), ExportError> {
+    super::write_file(path, |w| write_csv_to(packing, w))
+}

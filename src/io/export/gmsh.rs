@@ -1,0 +1,562 @@
+//! Gmsh `.geo` script (OpenCASCADE kernel): the particles inside their container, fragmented
+//! with the matrix so that the mesh is conforming across every particle surface.
+//!
+//! The script builds the container (`Box` or `Cylinder`) and one solid per particle, runs
+//! `BooleanFragments`, deletes every fragment outside the container, and sorts the rest
+//! into physical volumes by bounding boxes:
+//!
+//! | physical volume | tag | what |
+//! |---|---|---|
+//! | `matrix` | 1 | container minus particles (minus shells) |
+//! | `aggregates` | 2 | the particles |
+//! | `interface` | 3 | shells of thickness `t` around the particles (only with `interface_thickness`) |
+//!
+//! A fragment is an aggregate when it lies inside the bounding box of a particle, an interface
+//! piece when it lies inside the bounding box of a shell and is no aggregate; the matrix is
+//! connected and spans the container, so it never fits a particle's box (every particle is
+//! smaller than the container).
+//!
+//! **Periodic boxes.** A particle cut by a periodic face is written with each of its images
+//! that reaches into the box, all clipped to the box, so the pieces on opposite faces match;
+//! then every surface on a lower face is paired with the surface on the upper face whose
+//! bounding box is its translate, and `Periodic Surface` makes the two meshes identical (the
+//! pairing by bounding boxes is the method of Gmsh's tutorial t18).
+//!
+//! **Near-touching particles.** Jammed packings have gaps of ~10⁻¹² of a diameter, which no
+//! mesher resolves; shrink the particles first ([`GmshOptions::shrink`]) so that the narrowest
+//! gap is a few elements wide.
+
+use super::{bounding_sphere, container_bounds, periodic_axes, provenance_line, ExportError};
+use crate::io::packing::{ContainerRecord, Packing, ParticleRecord};
+use std::io::Write;
+
+/// Options of the Gmsh export.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct GmshOptions {
+    /// Thickness of interface shells around each particle (physical volume `interface`);
+    /// shells must not overlap each other or leave the container.
+    pub interface_thickness: Option<f64>,
+    /// Largest element size written as `Mesh.MeshSizeMax` (default: the mean radius / 2).
+    pub mesh_size: Option<f64>,
+    /// Relative radius reduction applied to every particle before export, in `[0, 1)`:
+    /// `r → (1 − shrink) r` about the same centre.
+    pub shrink: f64,
+}
+
+/// One solid of the script: a particle (or shell) translated by a periodic image shift.
+struct Solid<'a> {
+    particle: &'a ParticleRecord,
+    shift: [f64; 3],
+    /// Added to every radius / semi-axis (shells).
+    inflate: f64,
+}
+
+/// The `.geo` statement creating volume `tag` for a solid.
+fn solid_statement(s: &Solid, scale: f64, tag: usize) -> String {
+    match s.particle {
+        ParticleRecord::Sphere { center, radius } => format!(
+            "Sphere({tag}) = {{{}, {}, {}, {}}};",
+            center[0] + s.shift[0],
+            center[1] + s.shift[1],
+            center[2] + s.shift[2],
+            radius * scale + s.inflate
+        ),
+        ParticleRecord::Cylinder {
+            center,
+            radius,
+            half_axis,
+        } => {
+            // OpenCASCADE's cylinder: base point, axis vector (full length), radius; a shell
+            // also grows by `inflate` at both caps.
+            let length = half_axis.iter().map(|x| x * x).sum::<f64>().sqrt() * scale;
+            let stretch = scale * (1.0 + s.inflate / length);
+            let base: Vec<f64> = (0..3)
+                .map(|k| center[k] + s.shift[k] - half_axis[k] * stretch)
+                .collect();
+            format!(
+                "Cylinder({tag}) = {{{}, {}, {}, {}, {}, {}, {}}};",
+                base[0],
+                base[1],
+                base[2],
+                2.0 * half_axis[0] * stretch,
+                2.0 * half_axis[1] * stretch,
+                2.0 * half_axis[2] * stretch,
+                radius * scale + s.inflate
+            )
+        }
+    }
+}
+
+/// The `.geo` statement creating the box `[lo, hi]` as volume `tag`.
+fn box_statement(tag: usize, lo: [f64; 3], hi: [f64; 3]) -> String {
+    format!(
+        "Box({tag}) = {{{}, {}, {}, {}, {}, {}}};",
+        lo[0],
+        lo[1],
+        lo[2],
+        hi[0] - lo[0],
+        hi[1] - lo[1],
+        hi[2] - lo[2]
+    )
+}
+
+/// The particle with its size scaled by `scale` about its centre.
+fn scaled(p: &ParticleRecord, scale: f64) -> ParticleRecord {
+    match p {
+        ParticleRecord::Sphere { center, radius } => ParticleRecord::Sphere {
+            center: *center,
+            radius: radius * scale,
+        },
+        ParticleRecord::Cylinder {
+            center,
+            radius,
+            half_axis,
+        } => ParticleRecord::Cylinder {
+            center: *center,
+            radius: radius * scale,
+            half_axis: half_axis.map(|x| x * scale),
+        },
+    }
+}
+
+/// Image shifts of a bounding sphere `(c, r)` that reach into the box `[lo, hi]` along the
+/// periodic axes, the zero shift first.
+fn image_shifts(
+    c: [f64; 3],
+    r: f64,
+    lo: [f64; 3],
+    hi: [f64; 3],
+    periodic: [bool; 3],
+) -> Vec<[f64; 3]> {
+    let mut per_axis: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0]);
+    for k in 0..3 {
+        if periodic[k] {
+            let len = hi[k] - lo[k];
+            if c[k] - r < lo[k] {
+                per_axis[k].push(len);
+            }
+            if c[k] + r > hi[k] {
+                per_axis[k].push(-len);
+            }
+        }
+    }
+    let mut shifts = Vec::new();
+    for &sx in &per_axis[0] {
+        for &sy in &per_axis[1] {
+            for &sz in &per_axis[2] {
+                let s = [sx, sy, sz];
+                // Keep the image only if its bounding sphere reaches into the box.
+                let d2: f64 = (0..3)
+                    .map(|k| {
+                        let x = c[k] + s[k];
+                        (x - x.clamp(lo[k], hi[k])).powi(2)
+                    })
+                    .sum();
+                if d2 < r * r {
+                    shifts.push(s);
+                }
+            }
+        }
+    }
+    shifts
+}
+
+/// Offsets of the exported box along each periodic axis, chosen so that the faces stay as far
+/// as possible from every particle surface: a face that nearly touches a particle would cut
+/// off a sliver no mesher resolves. A periodic packing is invariant under translation, so the
+/// box may start anywhere; per axis the face goes to the middle of the widest gap between
+/// the surface extremes `c ± r` (taken modulo the box length). Returns the offsets and the
+/// smallest clearance between a face and a particle's extreme.
+fn face_offsets(
+    spheres: &[([f64; 3], f64)],
+    lo: [f64; 3],
+    hi: [f64; 3],
+    periodic: [bool; 3],
+) -> ([f64; 3], f64) {
+    let mut offsets = [0.0; 3];
+    let mut clearance = f64::INFINITY;
+    for k in (0..3).filter(|&k| periodic[k]) {
+        let len = hi[k] - lo[k];
+        let mut extremes: Vec<f64> = spheres
+            .iter()
+            .flat_map(|&(c, r)| [c[k] - r, c[k] + r])
+            .map(|x| (x - lo[k]).rem_euclid(len))
+            .collect();
+        if extremes.is_empty() {
+            continue;
+        }
+        extremes.sort_unstable_by(f64::total_cmp);
+        // Widest circular gap: between consecutive extremes, or from the last around to the first.
+        let mut best = (
+            extremes[0] + len - extremes[extremes.len() - 1],
+            extremes[extremes.len() - 1],
+        );
+        for w in extremes.windows(2) {
+            if w[1] - w[0] > best.0 {
+                best = (w[1] - w[0], w[0]);
+            }
+        }
+        offsets[k] = (best.1 + 0.5 * best.0).rem_euclid(len);
+        clearance = clearance.min(0.5 * best.0);
+    }
+    (offsets, clearance)
+}
+
+/// Checks the options against the packing: shrink in range, shells that neither overlap each
+/// other nor leave the container (checked by [`crate::verify`] on the inflated particles).
+fn check(packing: &Packing, opts: &GmshOptions) -> Result<GmshReport, ExportError> {
+    if !(opts.shrink >= 0.0 && opts.shrink < 1.0) {
+        return Err(ExportError::Invalid {
+            option: "--shrink",
+            message: format!("= {} is outside the allowed range [0, 1)", opts.shrink),
+        });
+    }
+    if let Some(h) = opts.mesh_size {
+        if !(h.is_finite() && h > 0.0) {
+            return Err(ExportError::Invalid {
+                option: "--mesh-size",
+                message: format!("= {h} must be a finite number > 0"),
+            });
+        }
+    }
+    if let Some(t) = opts.interface_thickness {
+        if !(t.is_finite() && t > 0.0) {
+            return Err(ExportError::Invalid {
+                option: "--interface",
+                message: format!("= {t} must be a finite number > 0"),
+            });
+        }
+    }
+    // The outermost exported surfaces (shrunk particles, or their shells) must not overlap
+    // or leave the container; their narrowest gap tells whether a mesher can resolve it.
+    let shell = opts.interface_thickness.unwrap_or(0.0);
+    let mut outer = packing.clone();
+    outer.min_gap = 0.0;
+    for p in &mut outer.particles {
+        let (_, r) = bounding_sphere(p);
+        *p = scaled(p, ((1.0 - opts.shrink) * r + shell) / r);
+    }
+    let v = crate::verify::verify(&outer);
+    if !v.ok() {
+        return Err(ExportError::Invalid {
+            option: "--interface",
+            message: format!(
+                "shells of thickness {shell} overlap or leave the container ({} violations, \
+                 first: {}); use a thinner shell or a larger --shrink",
+                v.violation_count,
+                v.violations.first().map_or("", String::as_str)
+            ),
+        });
+    }
+    let narrowest = [v.min_pair_gap, v.min_wall_gap]
+        .into_iter()
+        .flatten()
+        .fold(None, |m: Option<f64>, g| Some(m.map_or(g, |m| m.min(g))));
+    Ok(GmshReport {
+        mesh_size: opts
+            .mesh_size
+            .unwrap_or_else(|| default_mesh_size(packing, opts)),
+        narrowest_gap: narrowest,
+    })
+}
+
+/// Half the mean particle radius after shrinking.
+fn default_mesh_size(packing: &Packing, opts: &GmshOptions) -> f64 {
+    let n = packing.particles.len().max(1) as f64;
+    let sum: f64 = packing.particles.iter().map(|p| bounding_sphere(p).1).sum();
+    0.5 * sum / n * (1.0 - opts.shrink)
+}
+
+/// What the export found out about meshability.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GmshReport {
+    /// Largest element size written (`Mesh.MeshSizeMax`).
+    pub mesh_size: f64,
+    /// Narrowest gap between exported surfaces (particles or shells, after shrinking), pair
+    /// or wall; `None` without neighbours or walls. Much below the mesh size, meshing will be
+    /// slow or fail: shrink the particles.
+    pub narrowest_gap: Option<f64>,
+}
+
+/// Writes the `.geo` script for `packing` to `path`.
+pub fn write_geo(
+    packing: &Packing,
+    opts: &GmshOptions,
+    path: &std::path::Path,
+) -> Result<GmshReport, ExportError> {
+    let report = check(packing, opts)?;
+    super::write_file(path, |w| geo(packing, opts, report.mesh_size, w))?;
+    Ok(report)
+}
+
+fn geo(
+    packing: &Packing,
+    opts: &GmshOptions,
+    mesh_size: f64,
+    w: &mut impl Write,
+) -> std::io::Result<()> {
+    let (lo0, hi0) = container_bounds(&packing.container);
+    let periodic = periodic_axes(&packing.container);
+    let scale = 1.0 - opts.shrink;
+    let shell = opts.interface_thickness.unwrap_or(0.0);
+    let outer: Vec<([f64; 3], f64)> = packing
+        .particles
+        .iter()
+        .map(|p| {
+            let (c, r) = bounding_sphere(p);
+            (c, r * scale + shell)
+        })
+        .collect();
+    let (offset, clearance) = face_offsets(&outer, lo0, hi0, periodic);
+    let lo: [f64; 3] = std::array::from_fn(|k| lo0[k] + offset[k]);
+    let hi: [f64; 3] = std::array::from_fn(|k| hi0[k] + offset[k]);
+    let extent = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+    let eps = 1e-6 * extent;
+
+    writeln!(w, "// {}", provenance_line(packing))?;
+    writeln!(
+        w,
+        "// Physical volumes: \"matrix\" (1), \"aggregates\" (2){}. Lengths in the packing's unit.",
+        if opts.interface_thickness.is_some() {
+            ", \"interface\" (3)"
+        } else {
+            ""
+        }
+    )?;
+    writeln!(
+        w,
+        "// Particle radii scaled by {scale}; interface shell thickness {shell}."
+    )?;
+    if periodic.iter().any(|&p| p) {
+        writeln!(
+            w,
+            "// Periodic box translated by {offset:?} (a symmetry of the packing) so that no face \
+             comes closer than {clearance:.4e} to a particle's extreme."
+        )?;
+    }
+    writeln!(
+        w,
+        "// Mesh it with: gmsh -3 FILE.geo -o FILE.msh (add -order 2 for curved elements: linear\n\
+         // tetrahedra under-represent a sphere's volume by about 2 % at the size set below)."
+    )?;
+    writeln!(w, "SetFactory(\"OpenCASCADE\");")?;
+    writeln!(w, "eps = {eps};")?;
+    match &packing.container {
+        ContainerRecord::Box { .. } => writeln!(w, "{}", box_statement(1, lo, hi))?,
+        ContainerRecord::Cylinder {
+            base_center: b,
+            radius,
+            height,
+        } => writeln!(
+            w,
+            "Cylinder(1) = {{{}, {}, {}, 0, 0, {height}, {radius}}};",
+            b[0], b[1], b[2]
+        )?,
+    }
+
+    // Solids: cores (and shells), each with its periodic images. Tags: 1 container,
+    // 2 clipping box (periodic only), then cores, then shells.
+    let clip = periodic.iter().any(|&p| p);
+    let mut cores: Vec<Solid> = Vec::new();
+    let mut shells: Vec<Solid> = Vec::new();
+    for p in &packing.particles {
+        let (c, r) = bounding_sphere(p);
+        // Wrap into the (translated) box first; the images then reach across its faces.
+        let wrap: [f64; 3] = std::array::from_fn(|k| {
+            if periodic[k] {
+                lo[k] + (c[k] - lo[k]).rem_euclid(hi[k] - lo[k]) - c[k]
+            } else {
+                0.0
+            }
+        });
+        let wrapped: [f64; 3] = std::array::from_fn(|k| c[k] + wrap[k]);
+        for image in image_shifts(wrapped, r * scale + shell, lo, hi, periodic) {
+            let shift: [f64; 3] = std::array::from_fn(|k| wrap[k] + image[k]);
+            cores.push(Solid {
+                particle: p,
+                shift,
+                inflate: 0.0,
+            });
+            if opts.interface_thickness.is_some() {
+                shells.push(Solid {
+                    particle: p,
+                    shift,
+                    inflate: shell,
+                });
+            }
+        }
+    }
+    if clip {
+        writeln!(w, "{}", box_statement(2, lo, hi))?;
+    }
+    let first_core = if clip { 3 } else { 2 };
+    for (k, solid) in cores.iter().enumerate() {
+        writeln!(w, "{}", solid_statement(solid, scale, first_core + k))?;
+    }
+    let last_core = first_core + cores.len() - 1;
+    writeln!(
+        w,
+        "// Aggregates (clipped to the box on periodic axes), interface shells, matrix: disjoint"
+    )?;
+    writeln!(
+        w,
+        "// volumes whose tags the final fragmentation keeps (it only merges shared faces)."
+    )?;
+    if cores.is_empty() {
+        writeln!(w, "aggregates() = {{}};")?;
+    } else if clip {
+        writeln!(
+            w,
+            "aggregates() = BooleanIntersection{{ Volume{{{first_core}:{last_core}}}; Delete; }}{{ Volume{{2}}; Delete; }};"
+        )?;
+    } else {
+        writeln!(w, "aggregates() = {{{first_core}:{last_core}}};")?;
+    }
+    if opts.interface_thickness.is_some() && !cores.is_empty() {
+        let first_shell = last_core + 1;
+        for (k, solid) in shells.iter().enumerate() {
+            writeln!(w, "{}", solid_statement(solid, scale, first_shell + k))?;
+        }
+        let last_shell = first_shell + shells.len() - 1;
+        if clip {
+            let clip_tag = last_shell + 1;
+            writeln!(w, "{}", box_statement(clip_tag, lo, hi))?;
+            writeln!(
+                w,
+                "outer() = BooleanIntersection{{ Volume{{{first_shell}:{last_shell}}}; Delete; }}{{ Volume{{{clip_tag}}}; Delete; }};"
+            )?;
+        } else {
+            writeln!(w, "outer() = {{{first_shell}:{last_shell}}};")?;
+        }
+        writeln!(
+            w,
+            "interface() = BooleanDifference{{ Volume{{outer()}}; Delete; }}{{ Volume{{aggregates()}}; }};"
+        )?;
+    } else {
+        writeln!(w, "interface() = {{}};")?;
+    }
+    if cores.is_empty() {
+        writeln!(w, "matrix() = {{1}};")?;
+    } else {
+        writeln!(
+            w,
+            "matrix() = BooleanDifference{{ Volume{{1}}; Delete; }}{{ Volume{{aggregates(), interface()}}; }};"
+        )?;
+        writeln!(
+            w,
+            "all() = BooleanFragments{{ Volume{{matrix(), interface(), aggregates()}}; Delete; }}{{}};"
+        )?;
+    }
+    writeln!(w, "Physical Volume(\"matrix\", 1) = {{matrix()}};")?;
+    writeln!(w, "Physical Volume(\"aggregates\", 2) = {{aggregates()}};")?;
+    if opts.interface_thickness.is_some() {
+        writeln!(w, "Physical Volume(\"interface\", 3) = {{interface()}};")?;
+    }
+
+    for k in (0..3).filter(|&k| periodic[k]) {
+        let len = hi[k] - lo[k];
+        let mut t = [0.0; 3];
+        t[k] = len;
+        let mut face_hi = hi;
+        face_hi[k] = lo[k];
+        writeln!(w, "// Periodic faces along axis {k}.")?;
+        writeln!(
+            w,
+            "lower() = Surface In BoundingBox{{{}, {}, {}, {}, {}, {}}};",
+            lo[0] - eps,
+            lo[1] - eps,
+            lo[2] - eps,
+            face_hi[0] + eps,
+            face_hi[1] + eps,
+            face_hi[2] + eps
+        )?;
+        writeln!(w, "For i In {{0:#lower()-1}}")?;
+        writeln!(w, "  bb() = BoundingBox Surface{{lower(i)}};")?;
+        writeln!(
+            w,
+            "  upper() = Surface In BoundingBox{{bb(0)-eps+{}, bb(1)-eps+{}, bb(2)-eps+{}, bb(3)+eps+{}, bb(4)+eps+{}, bb(5)+eps+{}}};",
+            t[0], t[1], t[2], t[0], t[1], t[2]
+        )?;
+        writeln!(w, "  For j In {{0:#upper()-1}}")?;
+        writeln!(w, "    bu() = BoundingBox Surface{{upper(j)}};")?;
+        writeln!(
+            w,
+            "    If (Fabs(bu(0)-{}-bb(0)) < eps && Fabs(bu(1)-{}-bb(1)) < eps && Fabs(bu(2)-{}-bb(2)) < eps && Fabs(bu(3)-{}-bb(3)) < eps && Fabs(bu(4)-{}-bb(4)) < eps && Fabs(bu(5)-{}-bb(5)) < eps)",
+            t[0], t[1], t[2], t[0], t[1], t[2]
+        )?;
+        writeln!(
+            w,
+            "      Periodic Surface{{upper(j)}} = {{lower(i)}} Translate{{{}, {}, {}}};",
+            t[0], t[1], t[2]
+        )?;
+        writeln!(w, "    EndIf\n  EndFor\nEndFor")?;
+    }
+    writeln!(w, "Mesh.MeshSizeMax = {mesh_size};")?;
+    writeln!(w, "Mesh.MeshSizeFromCurvature = 24;")?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_narrowest_gap_is_measured_after_shrinking_and_overlapping_shells_are_refused() {
+        // Radii 1 and 2, centres 3.5 apart in a walled 10-cube. Shrunk by 10 %: radii 0.9
+        // and 1.8, pair gap 3.5 − 2.7 = 0.8; wall gaps 2 − 0.9 = 1.1 and 10 − 5.5 − 1.8 = 2.7.
+        let packing: Packing = serde_json::from_str(
+            r#"{"format": "densepack-packing", "version": 1,
+                "container": {"type": "box", "min": [0,0,0], "max": [10,10,10], "periodic": [false,false,false]},
+                "particles": [{"type": "sphere", "center": [2, 5, 5], "radius": 1},
+                              {"type": "sphere", "center": [5.5, 5, 5], "radius": 2}],
+                "min_gap": 0, "seed": 0,
+                "stats": {"packing_fraction": 0, "reduced_pressure": 0, "events": 0,
+                          "collisions": 0, "wall_seconds": 0, "stop_reason": ""}}"#,
+        )
+        .unwrap();
+        let opts = GmshOptions {
+            shrink: 0.1,
+            ..Default::default()
+        };
+        let report = check(&packing, &opts).unwrap();
+        assert!((report.narrowest_gap.unwrap() - 0.8).abs() < 1e-12);
+        assert!((report.mesh_size - 0.5 * 1.5 * 0.9).abs() < 1e-12);
+        // Shells of 0.3 leave 0.8 − 0.6 = 0.2 between them; 0.5 would overlap.
+        let shells = |t: f64| GmshOptions {
+            interface_thickness: Some(t),
+            ..opts
+        };
+        let report = check(&packing, &shells(0.3)).unwrap();
+        assert!((report.narrowest_gap.unwrap() - 0.2).abs() < 1e-12);
+        assert!(check(&packing, &shells(0.5)).is_err());
+    }
+
+    #[test]
+    fn periodic_faces_go_to_the_middle_of_the_widest_gap_between_particle_extremes() {
+        // Extremes along x at 0.5..1.5 and 9.5..10.5 ≡ 9.5..0.5 (mod 10): the covered set is
+        // 9.5..1.5, so the widest gap is 1.5..9.5 and the face goes to 5.5, clearance 4.
+        let spheres = [([1.0, 5.0, 5.0], 0.5), ([10.0, 5.0, 5.0], 0.5)];
+        let (offset, clearance) = face_offsets(&spheres, [0.0; 3], [10.0; 3], [true, false, false]);
+        assert_eq!(offset, [5.5, 0.0, 0.0]);
+        assert_eq!(clearance, 4.0);
+    }
+
+    #[test]
+    fn images_of_a_sphere_at_a_corner_are_those_that_reach_into_the_box() {
+        let lo = [0.0; 3];
+        let hi = [10.0; 3];
+        // Crosses the three lower faces; its corner image reaches in along the diagonal
+        // (distance √3·0.2 < 1).
+        let shifts = image_shifts([0.2, 0.2, 0.2], 1.0, lo, hi, [true; 3]);
+        assert_eq!(shifts.len(), 8);
+        assert_eq!(shifts[0], [0.0; 3]);
+        assert!(shifts.contains(&[10.0, 10.0, 10.0]));
+        // At (0.9, 0.9, 0.9) the edge images are √2·0.9 = 1.27 > 1 away and the corner image
+        // √3·0.9: only the three face images reach in.
+        let shifts = image_shifts([0.9, 0.9, 0.9], 1.0, lo, hi, [true; 3]);
+        assert_eq!(shifts.len(), 4);
+        // Walls: no images.
+        let shifts = image_shifts([0.2, 0.2, 0.2], 1.0, lo, hi, [false; 3]);
+        assert_eq!(shifts, vec![[0.0; 3]]);
+    }
+}

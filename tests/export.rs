@@ -1,0 +1,98 @@
+//! `densepack export`: what the files contain is checked with real readers by
+//! `tests/readers/run_export_checks.sh` (Gmsh, meshio, numpy; run by `.ci/run`). These tests
+//! cover the command line: bad options fail with exit code 2, name the option and write
+//! nothing; the CSV round-trips bit for bit.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn densepack(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_densepack"))
+        .args(args)
+        .output()
+        .expect("densepack runs")
+}
+
+fn packing_file(name: &str) -> (PathBuf, PathBuf) {
+    let dir = std::env::temp_dir().join(format!("densepack-export-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/scenes/export_periodic.toml"
+    );
+    let out = dir.join("p.json");
+    let run = densepack(&["run", scene, "--out", out.to_str().unwrap(), "--quiet"]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    (dir, out)
+}
+
+#[test]
+fn bad_export_options_fail_with_exit_code_2_name_the_option_and_write_nothing() {
+    let (dir, packing) = packing_file("bad");
+    let p = packing.to_str().unwrap();
+    let cases: [(&[&str], &str); 5] = [
+        (&["--format", "vtk", "--out", "x.vtk"], "--out"),
+        (
+            &["--format", "gmsh", "--out", "x.geo", "--interface", "0.9"],
+            "--interface",
+        ),
+        (
+            &["--format", "gmsh", "--out", "x.geo", "--shrink", "1.5"],
+            "--shrink",
+        ),
+        (
+            &["--format", "csv", "--out", "x.csv", "--shrink", "0.1"],
+            "--shrink",
+        ),
+        (
+            &["--format", "npy", "--out", "x.npy", "--voxels", "0"],
+            "--voxels",
+        ),
+    ];
+    for (args, option) in cases {
+        let out = dir.join(args[3]);
+        let mut full = vec!["export", p];
+        full.extend_from_slice(args);
+        full[5] = out.to_str().unwrap();
+        let result = densepack(&full);
+        let stderr = String::from_utf8_lossy(&result.stderr);
+        assert_eq!(result.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains(option), "{args:?}: {stderr}");
+        assert!(!out.exists(), "{args:?} wrote {}", out.display());
+    }
+}
+
+#[test]
+#[allow(irrefutable_let_patterns)] // spheres are the only particles today
+fn csv_export_round_trips_every_sphere_bit_for_bit() {
+    let (dir, packing) = packing_file("csv");
+    let out = dir.join("p.csv");
+    let result = densepack(&[
+        "export",
+        packing.to_str().unwrap(),
+        "--format",
+        "csv",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(result.status.success());
+    let text = std::fs::read_to_string(&out).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("x,y,z,r"));
+    let packing = densepack::io::packing::Packing::read(&packing).unwrap();
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), packing.particles.len());
+    for (row, p) in rows.iter().zip(&packing.particles) {
+        let densepack::io::packing::ParticleRecord::Sphere { center, radius } = p else {
+            panic!("the packing holds only spheres");
+        };
+        assert_eq!(row, &vec![center[0], center[1], center[2], *radius]);
+    }
+}

@@ -1,0 +1,256 @@
+#!/usr/bin/env python3
+"""Reads densepack exports back with real readers and checks them against the packing JSON.
+
+Usage: check_exports.py KIND PACKING.json FILE [options]
+  gmsh  FILE.msh  [--shrink S] [--interface T] [--tolerance 0.02]
+        meshio reads the mesh; volumes per physical group (sum of tetrahedron volumes) must
+        match the exact volumes computed here from the packing within the tolerance; on
+        periodic axes the nodes of opposite faces must coincide after translation.
+  vtk   FILE.vtu   meshio reads it; points and radii equal the packing's.
+  csv   FILE.csv   numpy reads it; rows equal the packing's particles.
+  npy   FILE.npy   numpy loads it; the labels equal a brute-force numpy voxelisation of the
+  raw   FILE.raw   packing (shape/dtype from the FILE.json sidecar for raw), and the voxel
+                   packing fraction equals the sidecar's.
+Exit status 0 when every check passes; a failed check raises.
+"""
+import json
+import math
+import sys
+
+import numpy as np
+
+
+def load_packing(path):
+    with open(path) as f:
+        p = json.load(f)
+    spheres = [q for q in p["particles"] if q["type"] == "sphere"]
+    assert len(spheres) == len(p["particles"]), "only spheres are checked here"
+    centres = np.array([q["center"] for q in spheres], dtype=float)
+    radii = np.array([q["radius"] for q in spheres], dtype=float)
+    return p, centres, radii
+
+
+def container_volume(c):
+    if c["type"] == "box":
+        return float(np.prod(np.array(c["max"]) - np.array(c["min"])))
+    return math.pi * c["radius"] ** 2 * c["height"]
+
+
+def option(args, name, default):
+    if name in args:
+        return float(args[args.index(name) + 1])
+    return default
+
+
+def linear_tet_volumes(pts, t):
+    a, b, c, d = (pts[t[:, k]] for k in range(4))
+    return np.abs(np.einsum("ij,ij->i", b - a, np.cross(c - a, d - a))) / 6.0
+
+
+def quadratic_tet_volumes(pts, t):
+    """Volumes of curved 10-node tetrahedra: the integral of det J of the isoparametric
+    quadratic map over the reference tetrahedron. J is linear in the reference coordinates, so
+    det J is a cubic, integrated exactly by a collapsed 4x4x4 Gauss-Legendre rule. meshio
+    stores the edge nodes in VTK order (edges 01, 12, 02, 03, 13, 23); checked here
+    geometrically: almost every edge node must lie closest to its own edge's midpoint (a few
+    strongly curved elements at thin shells may not)."""
+    vert = pts[t[:, :4]]                      # (n, 4, 3)
+    emid = pts[t[:, 4:]]                      # (n, 6, 3)
+    edges = [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)]
+    edge_mid = np.stack([(vert[:, i] + vert[:, j]) / 2 for i, j in edges], axis=1)
+    dist = np.linalg.norm(emid[:, :, None, :] - edge_mid[:, None, :, :], axis=3)
+    agree = np.mean(np.all(np.argmin(dist, axis=2) == np.arange(6), axis=1))
+    assert agree > 0.99, f"edge-node order: only {agree:.2%} of the elements match VTK order"
+    g, w = np.polynomial.legendre.leggauss(4)
+    g, w = (g + 1) / 2, w / 2
+    dL = np.array([[-1, -1, -1], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=float)
+    total = np.zeros(len(t))
+    for u, wu in zip(g, w):
+        for v, wv in zip(g, w):
+            for s, ws in zip(g, w):
+                xi, eta, zeta = u, v * (1 - u), s * (1 - u) * (1 - v)
+                jac_collapse = (1 - u) ** 2 * (1 - v)
+                L = np.array([1 - xi - eta - zeta, xi, eta, zeta])
+                # dx/dxi = sum over shape functions of x_node * grad N.
+                J = np.zeros((len(t), 3, 3))
+                for i in range(4):
+                    J += np.einsum("nc,k->nck", vert[:, i], (4 * L[i] - 1) * dL[i])
+                for e, (i, j) in enumerate(edges):
+                    J += np.einsum("nc,k->nck", emid[:, e], 4 * (L[j] * dL[i] + L[i] * dL[j]))
+                total += wu * wv * ws * jac_collapse * np.linalg.det(J)
+    return np.abs(total)
+
+
+def check_gmsh(packing_path, mesh_path, args):
+    import meshio
+
+    p, centres, radii = load_packing(packing_path)
+    shrink = option(args, "--shrink", 0.0)
+    shell = option(args, "--interface", 0.0)
+    tol = option(args, "--tolerance", 0.02)
+    mesh = meshio.read(mesh_path)
+    groups = {name: int(tag) for name, (tag, dim) in
+              ((n, v[:2]) for n, v in mesh.field_data.items()) if dim == 3}
+    expected_names = {"matrix", "aggregates"} | ({"interface"} if shell > 0 else set())
+    assert set(groups) == expected_names, f"physical volumes {groups}, expected {expected_names}"
+    # Exact volumes: periodic images reassemble whole particles; walls keep them inside.
+    r = radii * (1.0 - shrink)
+    aggregates = float(np.sum(4.0 / 3.0 * math.pi * r ** 3))
+    interface = float(np.sum(4.0 / 3.0 * math.pi * ((r + shell) ** 3 - r ** 3))) if shell > 0 else 0.0
+    total = container_volume(p["container"])
+    expected = {"aggregates": aggregates, "matrix": total - aggregates - interface}
+    if shell > 0:
+        expected["interface"] = interface
+    volumes = {name: 0.0 for name in groups}
+    pts = mesh.points
+    tets = 0
+    for block, phys in zip(mesh.cells, mesh.cell_data["gmsh:physical"]):
+        if block.type == "tetra":
+            vol = linear_tet_volumes(pts, block.data)
+        elif block.type == "tetra10":
+            vol = quadratic_tet_volumes(pts, block.data)
+        else:
+            continue
+        tets += len(block.data)
+        for name, tag in groups.items():
+            volumes[name] += float(vol[phys == tag].sum())
+    assert tets > 0, "no tetrahedra in the mesh"
+    for name, v in expected.items():
+        rel = volumes[name] / v - 1.0
+        print(f"gmsh: {name}: mesh volume {volumes[name]:.6g}, exact {v:.6g}, relative {rel:+.3%}")
+        assert abs(rel) <= tol, f"{name}: mesh volume off by {rel:+.3%} (tolerance {tol:.0%})"
+    c = p["container"]
+    if c["type"] == "box":
+        # The exporter may translate a periodic box (a symmetry): take the faces from the mesh.
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        assert np.allclose(hi - lo, np.array(c["max"]) - np.array(c["min"]), rtol=1e-9)
+        scale = float(np.max(hi - lo))
+        for k, periodic in enumerate(c["periodic"]):
+            if not periodic:
+                continue
+            low = pts[np.abs(pts[:, k] - lo[k]) < 1e-9 * scale]
+            high = pts[np.abs(pts[:, k] - hi[k]) < 1e-9 * scale].copy()
+            high[:, k] -= hi[k] - lo[k]
+            assert len(low) == len(high) > 0, f"axis {k}: {len(low)} vs {len(high)} face nodes"
+            key = lambda a: a[np.lexsort(np.round(a / (1e-7 * scale)).T[::-1])]
+            gap = np.max(np.abs(key(low) - key(high)))
+            assert gap < 1e-7 * scale, f"axis {k}: face nodes differ by {gap}"
+            print(f"gmsh: axis {k} periodic: {len(low)} face nodes match")
+    print(f"gmsh: ok ({len(pts)} nodes, {tets} tetrahedra)")
+
+
+def check_vtk(packing_path, path):
+    import meshio
+
+    _, centres, radii = load_packing(packing_path)
+    mesh = meshio.read(path)
+    assert np.array_equal(mesh.points, centres), "points differ from the centres"
+    pd = mesh.point_data
+    assert np.array_equal(pd["radius"].ravel(), radii), "radius differs"
+    assert np.array_equal(pd["semi_axes"], np.repeat(radii[:, None], 3, axis=1))
+    assert np.array_equal(pd["orientation"], np.tile([1.0, 0, 0, 0], (len(radii), 1)))
+    tensor = pd["shape_tensor"].reshape(-1, 3, 3)
+    assert np.array_equal(tensor, radii[:, None, None] * np.eye(3)[None])
+    assert sum(len(b.data) for b in mesh.cells if b.type == "vertex") == len(radii)
+    print(f"vtk: ok ({len(radii)} particles)")
+
+
+def check_csv(packing_path, path):
+    _, centres, radii = load_packing(packing_path)
+    with open(path) as f:
+        header = f.readline().strip()
+    assert header == "x,y,z,r", header
+    table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    assert np.array_equal(table[:, :3], centres) and np.array_equal(table[:, 3], radii)
+    print(f"csv: ok ({len(radii)} rows)")
+
+
+def brute_force_labels(p, centres, radii, shape, spacing, origin, particle_labels):
+    """Voxel-centre labels computed independently with numpy broadcasting."""
+    c = p["container"]
+    periodic = c.get("periodic", [False] * 3)
+    axes = [origin[k] + (np.arange(shape[k]) + 0.5) * spacing[k] for k in range(3)]
+    X, Y, Z = np.meshgrid(*axes, indexing="ij")
+    labels = np.zeros(shape, dtype=np.int64)
+    length = [shape[k] * spacing[k] for k in range(3)]
+    for i, (ctr, r) in enumerate(zip(centres, radii)):
+        d2 = np.zeros(shape)
+        for k, grid in enumerate((X, Y, Z)):
+            d = grid - ctr[k]
+            if periodic[k]:
+                d -= length[k] * np.round(d / length[k])
+            d2 += d * d
+        labels[d2 <= r * r] = i + 1 if particle_labels else 1
+    if c["type"] == "cylinder":
+        b = c["base_center"]
+        out = (X - b[0]) ** 2 + (Y - b[1]) ** 2 > c["radius"] ** 2
+        labels[out] = 2 ** 32 - 1 if particle_labels else 255
+    return labels
+
+
+def check_partial_volume(p, centres, radii, image, meta):
+    """Solid fractions from s^3 sample points per voxel, recomputed by brute force: the sample
+    grid is a voxel grid s times finer, labelled here and averaged over each s^3 block."""
+    s = int(meta["labels"]["samples_per_axis"])
+    shape = tuple(meta["shape"])
+    fine = brute_force_labels(p, centres, radii, tuple(n * s for n in shape),
+                              [h / s for h in meta["spacing"]], meta["origin"], False)
+    solid = (fine == 1).reshape(shape[0], s, shape[1], s, shape[2], s).mean(axis=(1, 3, 5))
+    if p["container"]["type"] == "cylinder":
+        centre_labels = brute_force_labels(p, centres, radii, shape, meta["spacing"],
+                                           meta["origin"], False)
+        solid[centre_labels == 255] = -1.0
+    gap = float(np.max(np.abs(image.astype(np.float64) - solid)))
+    assert gap < 1e-6, f"partial volumes differ from the numpy recomputation by {gap}"
+    phi = float(np.sum(4.0 / 3.0 * math.pi * radii ** 3)) / container_volume(p["container"])
+    phi_vox = float(image[image > 0].astype(np.float64).sum()) * float(np.prod(meta["spacing"])) \
+        / container_volume(p["container"])
+    assert abs(phi_vox - meta["packing_fraction_voxels"]) < 1e-9
+    assert abs(phi_vox - phi) <= meta["resolution_bound"], (phi_vox, phi, meta["resolution_bound"])
+    print(f"partial volume: ok ({shape}, {s}^3 samples, φ exact {phi:.5f}, voxels {phi_vox:.5f})")
+
+
+def check_voxels(packing_path, path, raw):
+    p, centres, radii = load_packing(packing_path)
+    with open(path + ".json") as f:
+        meta = json.load(f)
+    shape = tuple(meta["shape"])
+    if raw:
+        image = np.fromfile(path, dtype=np.dtype(meta["numpy_descr"])).reshape(shape)
+    else:
+        image = np.load(path)
+        assert image.shape == shape and image.dtype == np.dtype(meta["numpy_descr"])
+    if meta["dtype"] == "float32":
+        return check_partial_volume(p, centres, radii, image, meta)
+    particle_labels = meta["dtype"] == "uint32"
+    expected = brute_force_labels(p, centres, radii, shape, meta["spacing"], meta["origin"],
+                                  particle_labels)
+    mismatch = int(np.count_nonzero(image.astype(np.int64) != expected))
+    # Centres exactly on a sphere surface could go either way in floating point; none expected.
+    assert mismatch == 0, f"{mismatch} voxels differ from the numpy voxelisation"
+    outside = 2 ** 32 - 1 if particle_labels else 255
+    solid = np.count_nonzero((image != 0) & (image != outside))
+    phi_vox = solid * float(np.prod(meta["spacing"])) / container_volume(p["container"])
+    phi = float(np.sum(4.0 / 3.0 * math.pi * radii ** 3)) / container_volume(p["container"])
+    assert abs(phi_vox - meta["packing_fraction_voxels"]) < 1e-12
+    assert abs(phi - meta["packing_fraction_exact"]) < 1e-12
+    assert abs(phi_vox - phi) <= meta["resolution_bound"], (phi_vox, phi, meta["resolution_bound"])
+    print(f"{'raw' if raw else 'npy'}: ok ({shape}, φ exact {phi:.5f}, voxels {phi_vox:.5f})")
+
+
+def main():
+    kind, packing_path, path, *rest = sys.argv[1:]
+    if kind == "gmsh":
+        check_gmsh(packing_path, path, rest)
+    elif kind == "vtk":
+        check_vtk(packing_path, path)
+    elif kind == "csv":
+        check_csv(packing_path, path)
+    elif kind in ("npy", "raw"):
+        check_voxels(packing_path, path, kind == "raw")
+    else:
+        raise SystemExit(f"unknown kind {kind}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,78 @@
+#!/usr/bin/env bash
+# Exports small packings in every format and reads them back with real readers: Gmsh meshes
+# the .geo in 3D (second order), meshio reads meshes and .vtu files, numpy reads .npy, raw
+# and .csv. Checks are in check_exports.py. Called by .ci/run after the Rust tests.
+#
+# Readers: Debian's gmsh (installed with apt-get when missing and running as root), numpy
+# and meshio from PyPI (pip install when missing). On CI every reader must be there; on a
+# developer machine without apt/root the script says what is missing and fails.
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+
+need_install=()
+command -v gmsh >/dev/null 2>&1 || need_install+=(gmsh)
+if ((${#need_install[@]})); then
+  if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+    echo "installing ${need_install[*]} (Debian)"
+    apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${need_install[@]}" >/dev/null
+  else
+    echo "error: gmsh is missing and cannot be installed here (needs root and apt-get): install Debian's gmsh" >&2
+    exit 1
+  fi
+fi
+if ! python3 -c "import numpy, meshio" >/dev/null 2>&1; then
+  echo "installing numpy and meshio (PyPI)"
+  python3 -m pip install --quiet numpy meshio
+fi
+
+bin=target/release/densepack
+cargo build --release --quiet   # no-op after `cargo test --release`
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+check=tests/readers/check_exports.py
+passed=0
+
+run_check() { # name, command...
+  local name=$1
+  shift
+  if "$@"; then
+    passed=$((passed + 1))
+  else
+    echo "FAILED: $name" >&2
+    exit 1
+  fi
+}
+
+"$bin" run tests/scenes/export_periodic.toml --out "$work/periodic.json" --quiet
+"$bin" run tests/scenes/export_cylinder.toml --out "$work/cylinder.json" --quiet
+"$bin" run examples/scenes/walls_8_spheres.toml --out "$work/walls.json" --quiet
+
+mesh() { # packing, name, export options...
+  local packing=$1 name=$2
+  shift 2
+  "$bin" export "$work/$packing.json" --format gmsh --out "$work/$name.geo" "$@" >/dev/null
+  gmsh -v 1 -3 -order 2 "$work/$name.geo" -o "$work/$name.msh" >"$work/$name.log" 2>&1 ||
+    { cat "$work/$name.log" >&2; return 1; }
+  python3 "$check" gmsh "$work/$packing.json" "$work/$name.msh" "$@"
+}
+
+run_check "gmsh periodic" mesh periodic periodic
+run_check "gmsh periodic with interface shells" mesh periodic periodic_itz --shrink 0.1 --interface 0.05
+run_check "gmsh cylinder" mesh cylinder cylinder
+run_check "gmsh walls, jammed, shrunk" mesh walls walls --shrink 0.05
+
+for packing in periodic cylinder; do
+  "$bin" export "$work/$packing.json" --format vtk --out "$work/$packing.vtu" >/dev/null
+  run_check "vtk $packing" python3 "$check" vtk "$work/$packing.json" "$work/$packing.vtu"
+  "$bin" export "$work/$packing.json" --format csv --out "$work/$packing.csv" >/dev/null
+  run_check "csv $packing" python3 "$check" csv "$work/$packing.json" "$work/$packing.csv"
+  "$bin" export "$work/$packing.json" --format npy --voxels 48 --out "$work/$packing.npy" >/dev/null
+  run_check "npy $packing" python3 "$check" npy "$work/$packing.json" "$work/$packing.npy"
+  "$bin" export "$work/$packing.json" --format raw --labels particle --voxels 40 --out "$work/$packing.raw" >/dev/null
+  run_check "raw $packing" python3 "$check" raw "$work/$packing.json" "$work/$packing.raw"
+  "$bin" export "$work/$packing.json" --format npy --partial-volume 3 --voxels 24 --out "$work/$packing.pv.npy" >/dev/null
+  run_check "partial volume $packing" python3 "$check" npy "$work/$packing.json" "$work/$packing.pv.npy"
+done
+
+echo "exports: $passed passed, 0 failed"
