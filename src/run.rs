@@ -2,6 +2,9 @@
 //!
 //! [`run_scene`] picks the container and queue types from the scene once and runs a kernel
 //! monomorphised for them: a fully periodic box gets [`PeriodicBox`] (no wall code at all).
+//! Ellipsoid scenes go through [`ellipsoid`] with the same stage loop ([`run_stages`]).
+
+pub mod ellipsoid;
 
 use crate::boundary::{Boundary, CylinderContainer, PeriodicBox, WalledBox};
 use crate::io::packing::{ContainerRecord, Packing, PackingStats, ParticleRecord, FORMAT};
@@ -9,7 +12,7 @@ use crate::io::scene::{ContainerSpec, Scene};
 use crate::kernel::{Edmd, KernelConfig, StageReport};
 use crate::protocol::rsa::{rsa_spheres, RsaFailure};
 use crate::queue::{CalendarQueue, EventQueue, HeapQueue, QueueKind};
-use crate::shape::{Sphere, Vec3};
+use crate::shape::{Collidable, Sphere, Vec3};
 use crate::verify::{verify, Verification};
 use rand::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -50,6 +53,9 @@ pub enum RunError {
         /// Reports of the stages so far.
         stages: Vec<StageReport>,
     },
+    /// The scene asks for something this build cannot run (e.g. ellipsoids in a cylinder).
+    #[error("{0}")]
+    Unsupported(String),
     /// The independent check found overlaps: a kernel bug; nothing is written.
     #[error("the independent overlap check rejected the packing: {0}")]
     Verification(String),
@@ -60,6 +66,9 @@ pub fn run_scene(
     scene: &Scene,
     on_stage: &mut dyn FnMut(usize, &StageReport),
 ) -> Result<RunOutcome, RunError> {
+    if scene.particles.ellipsoid.is_some() {
+        return ellipsoid::run_ellipsoid_scene(scene, on_stage);
+    }
     match &scene.container {
         ContainerSpec::Box {
             min,
@@ -156,13 +165,33 @@ fn run_with<B: Boundary + ContainerRecordOf, Q: EventQueue>(
         &mut rng,
     )?;
     let shapes = radii.iter().map(|&r| Sphere::new(r)).collect();
-    let config = KernelConfig {
+    let config = kernel_config(scene);
+    let mut kernel: Edmd<Sphere, B, Q> = Edmd::new(centres, shapes, boundary, config, &mut rng);
+    let reports = run_stages(scene, &mut kernel, on_stage)?;
+    let packing = packing_of(scene, &kernel, &reports, |p| ParticleRecord::Sphere {
+        center: p.pos.into(),
+        radius: p.shape.radius(0.0),
+    });
+    drop(kernel); // the verification's own index should not add to the kernel's peak memory
+    verified(packing, reports)
+}
+
+/// The kernel settings of a scene.
+fn kernel_config(scene: &Scene) -> KernelConfig {
+    KernelConfig {
         mass: scene.mass,
         temperature: scene.temperature,
         events_per_particle_per_interval: scene.events_per_particle_per_interval,
         neighbour_skin: scene.neighbour_skin,
-    };
-    let mut kernel: Edmd<Sphere, B, Q> = Edmd::new(centres, shapes, boundary, config, &mut rng);
+    }
+}
+
+/// Runs the scene's stages in order; the first stage that misses its goal fails the run.
+fn run_stages<S: Collidable, B: Boundary, Q: EventQueue>(
+    scene: &Scene,
+    kernel: &mut Edmd<S, B, Q>,
+    on_stage: &mut dyn FnMut(usize, &StageReport),
+) -> Result<Vec<StageReport>, RunError> {
     let mut reports: Vec<StageReport> = Vec::new();
     for (k, spec) in scene.stages.iter().enumerate() {
         let report = kernel.run_stage(&spec.to_stage());
@@ -181,8 +210,11 @@ fn run_with<B: Boundary + ContainerRecordOf, Q: EventQueue>(
             });
         }
     }
-    let packing = packing_of(scene, &kernel, &reports);
-    drop(kernel); // the verification's own index should not add to the kernel's peak memory
+    Ok(reports)
+}
+
+/// Checks a packing independently; only a packing without violations is returned.
+fn verified(packing: Packing, reports: Vec<StageReport>) -> Result<RunOutcome, RunError> {
     let verification = verify(&packing);
     if !verification.ok() {
         return Err(RunError::Verification(verification.violations.join("; ")));
@@ -194,10 +226,11 @@ fn run_with<B: Boundary + ContainerRecordOf, Q: EventQueue>(
     })
 }
 
-fn packing_of<B: Boundary + ContainerRecordOf, Q: EventQueue>(
+fn packing_of<S: Collidable, B: Boundary + ContainerRecordOf, Q: EventQueue>(
     scene: &Scene,
-    kernel: &Edmd<Sphere, B, Q>,
+    kernel: &Edmd<S, B, Q>,
     reports: &[StageReport],
+    record: impl Fn(&crate::kernel::Particle<S>) -> ParticleRecord,
 ) -> Packing {
     // Back to the order of the seeding, which the kernel permutes for cache locality.
     let mut order: Vec<u32> = vec![0; kernel.particles().len()];
@@ -206,13 +239,7 @@ fn packing_of<B: Boundary + ContainerRecordOf, Q: EventQueue>(
     }
     let particles = order
         .into_iter()
-        .map(|k| {
-            let p = &kernel.particles()[k as usize];
-            ParticleRecord::Sphere {
-                center: p.pos.into(),
-                radius: p.shape.radius(0.0),
-            }
-        })
+        .map(|k| record(&kernel.particles()[k as usize]))
         .collect();
     let last = reports.last().expect("a scene has at least one stage");
     let events: u64 = reports.iter().map(|r| r.counts.events).sum();

@@ -210,7 +210,9 @@ fn eight_spheres_in_a_walled_cube_jam_as_a_simple_cubic_lattice() {
     assert!((phi - std::f64::consts::PI / 6.0).abs() < 1e-3, "φ = {phi}");
     // Paper 001, Fig. 5: the eight spheres sit at the centres of the eight sub-cubes.
     for p in &out.packing.particles {
-        let densepack::io::packing::ParticleRecord::Sphere { center, .. } = p;
+        let densepack::io::packing::ParticleRecord::Sphere { center, .. } = p else {
+            panic!("a sphere scene writes spheres");
+        };
         for x in center {
             assert!(
                 (x - 0.5).abs() < 1e-3 || (x - 1.5).abs() < 1e-3,
@@ -277,6 +279,7 @@ until = { reduced_pressure = 1e10 }
         .iter()
         .map(|p| match p {
             densepack::io::packing::ParticleRecord::Sphere { radius, .. } => *radius,
+            _ => panic!("a sphere scene writes spheres"),
         })
         .collect();
     let (small, big) = (radii[0], radii[150]);
@@ -297,7 +300,9 @@ until = { reduced_pressure = 1e10 }
     assert!(out.verification.min_wall_gap.unwrap() >= -1e-9 * big);
     // Containment checked here again, independently of `verify`.
     for p in &out.packing.particles {
-        let densepack::io::packing::ParticleRecord::Sphere { center, radius } = p;
+        let densepack::io::packing::ParticleRecord::Sphere { center, radius } = p else {
+            panic!("a sphere scene writes spheres");
+        };
         let rho = (center[0] - 1.0).hypot(center[1] + 2.0);
         assert!(
             rho + radius <= 4.0 * (1.0 + 1e-12),

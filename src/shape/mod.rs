@@ -10,8 +10,14 @@
 //! time barrier). At every barrier the kernel calls [`Collidable::rebase`] so that the stored
 //! size refers to the new origin and `t` stays small (precision does not decay in long runs).
 
+mod ellipsoid;
+pub mod quartic;
 mod sphere;
 
+pub use ellipsoid::{
+    ellipsoid_pair_impulse, predict_ellipsoid_pair, prediction_failures,
+    support_curvature_bound, Ellipsoid, Predictor, Spin, CONTACT_TOLERANCE, MAX_STEPS,
+};
 pub use sphere::{predict_sphere_sphere, Sphere};
 
 /// Three-vector of `f64`, the only vector type of the kernel.

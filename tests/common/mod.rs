@@ -42,6 +42,7 @@ pub fn assert_no_overlap(packing: &Packing) -> f64 {
         .iter()
         .map(|p| match p {
             ParticleRecord::Sphere { center, radius } => (*center, *radius),
+            _ => panic!("assert_no_overlap checks spheres"),
         })
         .collect();
     let mut worst = f64::INFINITY;
