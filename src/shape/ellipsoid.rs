@@ -62,6 +62,7 @@ pub const MAX_STEPS: u32 = 500;
 
 static PREDICTION_FAILURES: AtomicU64 = AtomicU64::new(0);
 
+
 /// Number of ellipsoid predictions that hit [`MAX_STEPS`] or met a singular configuration
 /// since the process started (each was handled conservatively, never by a panic).
 pub fn prediction_failures() -> u64 {
@@ -230,6 +231,20 @@ fn support_and_rate(m: &Matrix3<f64>, n: &Vec3, omega: &Vec3, rel: f64) -> (f64,
     (h, h * rel - omega.dot(&n.cross(&mn)) / h)
 }
 
+/// Support function along unit `n` of an ellipsoid `dt` after its spin state `spin`, at
+/// kernel time `t`, and its rate along the fixed `n` ([`support_and_rate`] without forming
+/// `M`: `Mn = R·D²·Rᵀn`).
+#[inline]
+fn support_along(shape: &Ellipsoid, spin: &Spin, dt: f64, t: f64, n: &Vec3) -> (f64, f64) {
+    let q = Ellipsoid::spin_after(spin, dt).orientation;
+    let body = q.inverse_transform_vector(n);
+    let d = shape.semi_axes(t);
+    let d2 = d.component_mul(&d);
+    let mn = q.transform_vector(&d2.component_mul(&body));
+    let h = n.dot(&mn).sqrt();
+    (h, h * shape.relative_growth(t) - spin.omega.dot(&n.cross(&mn)) / h)
+}
+
 /// The Perram–Wertheim function and its first two λ-derivatives for separation `r`
 /// (from a to b), or `None` if `G` is not positive definite (degenerate input).
 ///
@@ -328,6 +343,22 @@ fn contact_geometry(ma: &Matrix3<f64>, mb: &Matrix3<f64>, r: &Vec3) -> Option<Co
     })
 }
 
+/// Contact point (relative to the centre of `a`) and unit normal (from `b` to `a`) of two
+/// touching ellipsoids at time `t`, `dr = c_a − c_b`: the point and normal that
+/// [`ellipsoid_pair_impulse`] uses (Eq. 14 and 26). `None` if the configuration is degenerate.
+pub fn contact_point_and_normal(
+    a: &Ellipsoid,
+    b: &Ellipsoid,
+    sa: &Spin,
+    sb: &Spin,
+    dr: &Vec3,
+    t: f64,
+) -> Option<(Vec3, Vec3)> {
+    let ma = a.shape_matrix(&sa.rotation(), t);
+    let mb = b.shape_matrix(&sb.rotation(), t);
+    contact_geometry(&ma, &mb, &-dr).map(|c| (c.point, -c.normal))
+}
+
 /// The relative motion of a pair during one prediction.
 struct PairMotion<'a> {
     a: &'a Ellipsoid,
@@ -350,21 +381,33 @@ impl PairMotion<'_> {
         (pa, pb, self.r0 + self.w * tau)
     }
 
-    /// Projected gap along the separating axis at `t + τ`, its rate along that fixed axis,
-    /// and the improved λ; `None` if the configuration is degenerate.
+    /// The Perram–Wertheim separating axis at `t + τ` (unit, from a to b) and the improved
+    /// λ; `None` if the configuration is degenerate.
     #[inline]
-    fn gap_and_rate(&self, tau: f64, lambda: f64, iterations: u32) -> Option<(f64, f64, f64)> {
+    fn separating_axis(&self, tau: f64, lambda: f64, iterations: u32) -> Option<(Vec3, f64)> {
         let (pa, pb, r) = self.at(tau);
         let (lambda, x) = pw_maximise(&pa.m, &pb.m, &r, lambda, iterations)?;
         let norm = x.norm();
-        if norm == 0.0 || !norm.is_finite() {
-            return None;
-        }
-        let n = x / norm;
+        (norm > 0.0 && norm.is_finite()).then(|| (x / norm, lambda))
+    }
+
+    /// Projected gap along the fixed unit axis `n` at `t + τ` and its rate: a lower bound of
+    /// the distance for any `n`.
+    #[inline]
+    fn gap_along(&self, tau: f64, n: &Vec3) -> (f64, f64) {
         let t = self.t + tau;
-        let (ha, ha_rate) = support_and_rate(&pa.m, &n, &self.sa.omega, self.a.relative_growth(t));
-        let (hb, hb_rate) = support_and_rate(&pb.m, &n, &self.sb.omega, self.b.relative_growth(t));
-        Some((n.dot(&r) - ha - hb, n.dot(&self.w) - ha_rate - hb_rate, lambda))
+        let (ha, ha_rate) = support_along(self.a, self.sa, tau, t, n);
+        let (hb, hb_rate) = support_along(self.b, self.sb, tau, t, n);
+        let r = self.r0 + self.w * tau;
+        (n.dot(&r) - ha - hb, n.dot(&self.w) - ha_rate - hb_rate)
+    }
+
+    /// [`PairMotion::separating_axis`] and the gap along it.
+    #[cfg(test)]
+    fn gap_and_rate(&self, tau: f64, lambda: f64, iterations: u32) -> Option<(f64, f64, f64)> {
+        let (n, lambda) = self.separating_axis(tau, lambda, iterations)?;
+        let (gap, rate) = self.gap_along(tau, &n);
+        Some((gap, rate, lambda))
     }
 
     /// Bound of the second derivative of the projected gap over `[t, t + max_tau]`.
@@ -424,18 +467,39 @@ pub fn predict_ellipsoid_pair(
     let switch = 1e-3 * a.min_semi_axis(t).min(b.min_semi_axis(t));
     let mut tau = start;
     let mut lambda = 0.5;
-    let mut iterations = 8;
+    // Cheap steps along a fixed axis (first the centre line) until they have closed most of
+    // the gap; then the Perram–Wertheim axis is refreshed (the expensive part).
+    let mut axis = (motion.r0 + motion.w * tau).try_normalize(0.0);
+    let mut fresh = false;
+    let mut reference = f64::INFINITY;
     for _ in 0..MAX_STEPS {
-        let Some((gap, rate, l)) = motion.gap_and_rate(tau, lambda, iterations) else {
-            count_failure();
-            return Some(tau);
+        let n = match axis {
+            Some(n) => n,
+            None => {
+                let Some((n, l)) = motion.separating_axis(tau, lambda, 8) else {
+                    count_failure();
+                    return Some(tau);
+                };
+                lambda = l;
+                fresh = true;
+                axis = Some(n);
+                n
+            }
         };
-        lambda = l;
-        iterations = 3;
+        let (gap, rate) = motion.gap_along(tau, &n);
+        if fresh || !reference.is_finite() {
+            reference = gap;
+        }
         if gap <= tolerance {
-            // Make sure the separating axis is converged before calling it a contact.
-            let (gap, rate, l) = motion.gap_and_rate(tau, lambda, 60)?;
+            if !fresh {
+                // Perhaps only a stale axis: look again along the converged one.
+                axis = None;
+                continue;
+            }
+            let (n, l) = motion.separating_axis(tau, lambda, 60)?;
             lambda = l;
+            axis = Some(n);
+            let (gap, rate) = motion.gap_along(tau, &n);
             if gap <= tolerance {
                 if rate < 0.0 {
                     return Some(tau);
@@ -450,18 +514,26 @@ pub fn predict_ellipsoid_pair(
                 if tau > max_tau {
                     return None;
                 }
+                fresh = false;
+                reference = f64::INFINITY;
+                continue;
             }
-            continue;
         }
-        if a.predictor == Predictor::Characteristic && gap < switch {
+        if fresh && a.predictor == Predictor::Characteristic && gap < switch {
             if let Some(found) = characteristic_contact(&motion, tau, gap, rate, max_tau) {
                 return found;
             }
         }
-        tau += certified_step(gap, rate, curvature);
+        tau += certified_step(gap.max(0.0), rate, curvature);
         if tau > max_tau {
             return None;
         }
+        // Refresh the axis once the gap along it has shrunk to a quarter of its value at
+        // the last refresh.
+        if gap < 0.25 * reference {
+            axis = None;
+        }
+        fresh = false;
     }
     count_failure();
     Some(tau)

@@ -15,7 +15,7 @@ pub mod quartic;
 mod sphere;
 
 pub use ellipsoid::{
-    ellipsoid_pair_impulse, predict_ellipsoid_pair, prediction_failures,
+    contact_point_and_normal, ellipsoid_pair_impulse, predict_ellipsoid_pair, prediction_failures,
     support_curvature_bound, Ellipsoid, Predictor, Spin, CONTACT_TOLERANCE, MAX_STEPS,
 };
 pub use sphere::{predict_sphere_sphere, Sphere};
