@@ -242,7 +242,7 @@ fn predicted_contacts_are_never_late_and_are_touching() {
     let scan = 400;
     let failures_before = prediction_failures();
     let (mut contacts, mut pairs) = (0, 0);
-    for k in 0..5000 {
+    for k in 0..10_000 {
         let ratio = if k % 5 == 0 { 50.0 } else { 10.0 };
         let pair = Pair::random(&mut rng, ratio);
         pairs += 1;
@@ -284,7 +284,7 @@ fn prediction_is_symmetric_in_the_pair() {
 /// measure is convex along a line, so golden-section search finds its minimum.
 fn min_scale_on_line(pair: &Pair, max_tau: f64) -> f64 {
     let (mut lo, mut hi) = (0.0, max_tau);
-    for _ in 0..100 {
+    for _ in 0..60 {
         let (m1, m2) = (lo + (hi - lo) / 3.0, hi - (hi - lo) / 3.0);
         if pair.scale_at(m1) < pair.scale_at(m2) {
             hi = m2;
@@ -311,7 +311,7 @@ fn near_grazing_pairs_are_caught_or_missed_correctly() {
         // the independent measure.
         let perp = Vec3::new(0.0, rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0)).normalize();
         let (mut lo, mut hi) = (0.0, 3.0);
-        for _ in 0..80 {
+        for _ in 0..50 {
             let mid = 0.5 * (lo + hi);
             pair.dr = Vec3::new(2.0, 0.0, 0.0) + perp * mid;
             if min_scale_on_line(&pair, max_tau) < 1.0 {

@@ -254,11 +254,11 @@ fn support_along(shape: &Ellipsoid, spin: &Spin, dt: f64, t: f64, n: &Vec3) -> (
 #[inline]
 fn pw_newton(ma: &Matrix3<f64>, mb: &Matrix3<f64>, r: &Vec3, lambda: f64) -> Option<(Vec3, f64, f64)> {
     let g = ma * (1.0 - lambda) + mb * lambda;
-    let chol = g.cholesky()?;
-    let x = chol.solve(r);
+    let inverse = symmetric_inverse(&g)?;
+    let x = inverse * r;
     let delta = mb - ma;
     let dx = delta * x;
-    let y = chol.solve(&dx);
+    let y = inverse * dx;
     let rx = r.dot(&x);
     let xdx = x.dot(&dx);
     let l1 = lambda * (1.0 - lambda);
@@ -267,21 +267,42 @@ fn pw_newton(ma: &Matrix3<f64>, mb: &Matrix3<f64>, r: &Vec3, lambda: f64) -> Opt
     Some((x, f1, f2))
 }
 
+/// Inverse of a symmetric positive definite 3×3 matrix by its adjugate (cheaper than a
+/// general factorisation for this size), or `None` if it is not positive definite.
+#[inline]
+fn symmetric_inverse(g: &Matrix3<f64>) -> Option<Matrix3<f64>> {
+    let c00 = g[(1, 1)] * g[(2, 2)] - g[(1, 2)] * g[(1, 2)];
+    let c01 = g[(1, 2)] * g[(0, 2)] - g[(0, 1)] * g[(2, 2)];
+    let c02 = g[(0, 1)] * g[(1, 2)] - g[(1, 1)] * g[(0, 2)];
+    let det = g[(0, 0)] * c00 + g[(0, 1)] * c01 + g[(0, 2)] * c02;
+    if !(det > 0.0 && g[(0, 0)] > 0.0 && c00 > 0.0) {
+        return None;
+    }
+    let c11 = g[(0, 0)] * g[(2, 2)] - g[(0, 2)] * g[(0, 2)];
+    let c12 = g[(0, 1)] * g[(0, 2)] - g[(0, 0)] * g[(1, 2)];
+    let c22 = g[(0, 0)] * g[(1, 1)] - g[(0, 1)] * g[(0, 1)];
+    let k = 1.0 / det;
+    Some(Matrix3::new(c00, c01, c02, c01, c11, c12, c02, c12, c22) * k)
+}
+
 /// Maximises the Perram–Wertheim function by safeguarded Newton steps from `lambda`
-/// (`F` is concave on `[0, 1]`, `F'(0) > 0 > F'(1)`). Returns the improved λ and `G⁻¹r` there;
-/// `iterations` bounds the work (a warm start needs one or two).
+/// (`F` is concave on `[0, 1]`, `F'(0) > 0 > F'(1)`) until a step is below `precision`.
+/// Returns the last λ evaluated and `G⁻¹r` there; `iterations` bounds the work (a warm
+/// start needs one or two). Any λ gives a valid separating axis for the prediction; only
+/// the contact point needs it converged.
 fn pw_maximise(
     ma: &Matrix3<f64>,
     mb: &Matrix3<f64>,
     r: &Vec3,
     mut lambda: f64,
     iterations: u32,
+    precision: f64,
 ) -> Option<(f64, Vec3)> {
     let (mut lo, mut hi) = (0.0_f64, 1.0_f64);
     let mut last = None;
     for _ in 0..iterations {
         let (x, f1, f2) = pw_newton(ma, mb, r, lambda)?;
-        last = Some(x);
+        last = Some((lambda, x));
         if f1 > 0.0 {
             lo = lambda;
         } else {
@@ -293,13 +314,11 @@ fn pw_maximise(
         }
         let step = (next - lambda).abs();
         lambda = next;
-        if step < 1e-14 {
+        if step < precision {
             break;
         }
     }
-    let g = ma * (1.0 - lambda) + mb * lambda;
-    let x = g.cholesky().map(|c| c.solve(r)).or(last)?;
-    Some((lambda, x))
+    last
 }
 
 /// First time `δ > 0` at which `g + g'δ − Kδ²/2` reaches zero (`g > 0`, `K ≥ 0`), `∞` if never.
@@ -329,7 +348,7 @@ struct ContactGeometry {
 /// Contact geometry of `a` (centre 0) and `b` (centre `r`) from the maximiser of the
 /// Perram–Wertheim function.
 fn contact_geometry(ma: &Matrix3<f64>, mb: &Matrix3<f64>, r: &Vec3) -> Option<ContactGeometry> {
-    let (lambda, x) = pw_maximise(ma, mb, r, 0.5, 60)?;
+    let (lambda, x) = pw_maximise(ma, mb, r, 0.5, 60, 1e-15)?;
     let normal = x.normalize();
     let point = ma * x * (1.0 - lambda);
     let ha = normal.dot(&(ma * normal)).sqrt();
@@ -386,7 +405,8 @@ impl PairMotion<'_> {
     #[inline]
     fn separating_axis(&self, tau: f64, lambda: f64, iterations: u32) -> Option<(Vec3, f64)> {
         let (pa, pb, r) = self.at(tau);
-        let (lambda, x) = pw_maximise(&pa.m, &pb.m, &r, lambda, iterations)?;
+        let precision = if iterations > 8 { 1e-15 } else { 1e-8 };
+        let (lambda, x) = pw_maximise(&pa.m, &pb.m, &r, lambda, iterations, precision)?;
         let norm = x.norm();
         (norm > 0.0 && norm.is_finite()).then(|| (x / norm, lambda))
     }
@@ -862,7 +882,7 @@ mod tests {
         };
         let tau = 0.05;
         let (pa, pb, r) = motion.at(tau);
-        let (_, x) = pw_maximise(&pa.m, &pb.m, &r, 0.5, 60).unwrap();
+        let (_, x) = pw_maximise(&pa.m, &pb.m, &r, 0.5, 60, 1e-15).unwrap();
         let n = x.normalize();
         let gap_n = |tau: f64| {
             let (pa, pb, r) = motion.at(tau);
