@@ -42,11 +42,18 @@ impl Pair {
         let rot = |s: &Spin| UnitQuaternion::from_scaled_axis(s.omega * tau) * s.orientation;
         let d = self.dr + self.dv * tau;
         let axes = self.a.semi_axes(tau);
-        contact_scale(&m_of(&rot(&self.sa), &axes), &m_of(&rot(&self.sb), &axes), &[d.x, d.y, d.z])
+        contact_scale(
+            &m_of(&rot(&self.sa), &axes),
+            &m_of(&rot(&self.sb), &axes),
+            &[d.x, d.y, d.z],
+        )
     }
 
     fn predict(&self, predictor: Predictor) -> Option<f64> {
-        let a = Ellipsoid { predictor, ..self.a };
+        let a = Ellipsoid {
+            predictor,
+            ..self.a
+        };
         predict_ellipsoid_pair(&a, &a, &self.sa, &self.sb, &self.dr, &self.dv, 0.0, 2.0)
     }
 }
@@ -90,7 +97,10 @@ fn accuracy_table() {
     println!("|---|---|---|---|---|---|");
     for ratio in RATIOS {
         let set = pairs(ratio, 2000);
-        let reference: Vec<Option<f64>> = set.iter().map(|p| p.predict(Predictor::SeparatingAxis)).collect();
+        let reference: Vec<Option<f64>> = set
+            .iter()
+            .map(|p| p.predict(Predictor::SeparatingAxis))
+            .collect();
         for (mode, name) in MODES {
             let start = Instant::now();
             let got: Vec<Option<f64>> = set.iter().map(|p| p.predict(mode)).collect();

@@ -139,8 +139,7 @@ pub fn verify(packing: &Packing) -> Verification {
         } = p
         {
             let norm = orientation.iter().map(|x| x * x).sum::<f64>().sqrt();
-            if !(semi_axes.iter().all(|a| a.is_finite() && *a > 0.0) && (norm - 1.0).abs() < 1e-9)
-            {
+            if !(semi_axes.iter().all(|a| a.is_finite() && *a > 0.0) && (norm - 1.0).abs() < 1e-9) {
                 violate(
                     &mut out,
                     format!("particle {i}: semi-axes ≤ 0 or orientation not a unit quaternion"),

@@ -6,8 +6,8 @@ use densepack::shape::quartic::{
     classify, pencil_coefficients, pencil_polynomial, quadric_matrix, Configuration, Eta,
 };
 use densepack::shape::{
-    contact_point_and_normal, ellipsoid_pair_impulse, predict_ellipsoid_pair,
-    prediction_failures, Collidable, Ellipsoid, Spin, Vec3,
+    contact_point_and_normal, ellipsoid_pair_impulse, predict_ellipsoid_pair, prediction_failures,
+    Collidable, Ellipsoid, Spin, Vec3,
 };
 use densepack::verify::contact_scale;
 use nalgebra::{Matrix3, Matrix4, SMatrix, SVector, UnitQuaternion};
@@ -52,7 +52,13 @@ fn m_of(q: &UnitQuaternion<f64>, axes: &Vec3) -> [[f64; 3]; 3] {
 }
 
 /// Independent overlap measure of two posed ellipsoids (`< 1`: overlap).
-fn scale_of(qa: &UnitQuaternion<f64>, aa: &Vec3, qb: &UnitQuaternion<f64>, ab: &Vec3, d: &Vec3) -> f64 {
+fn scale_of(
+    qa: &UnitQuaternion<f64>,
+    aa: &Vec3,
+    qb: &UnitQuaternion<f64>,
+    ab: &Vec3,
+    d: &Vec3,
+) -> f64 {
     contact_scale(&m_of(qa, aa), &m_of(qb, ab), &[d.x, d.y, d.z])
 }
 
@@ -66,7 +72,10 @@ fn pencil_polynomial_matches_numerical_determinant() {
         for &l in &[-2.0, -0.5, 0.3, 1.7] {
             let direct = (a * l + b).determinant();
             let poly = (((p[0] * l + p[1]) * l + p[2]) * l + p[3]) * l + p[4];
-            assert!((direct - poly).abs() < 1e-10 * (1.0 + direct.abs()), "{direct} {poly}");
+            assert!(
+                (direct - poly).abs() < 1e-10 * (1.0 + direct.abs()),
+                "{direct} {poly}"
+            );
         }
     }
 }
@@ -76,7 +85,10 @@ fn unit_frame_coefficients_are_proportional_to_world_frame_ones() {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(2);
     for _ in 0..200 {
         let (qa, qb) = (random_rotation(&mut rng), random_rotation(&mut rng));
-        let (aa, ab) = (random_axes(&mut rng, 10.0), random_axes(&mut rng, 10.0) * 0.7);
+        let (aa, ab) = (
+            random_axes(&mut rng, 10.0),
+            random_axes(&mut rng, 10.0) * 0.7,
+        );
         let r = normal3(&mut rng) * 1.5;
         let world = pencil_polynomial(
             &quadric_matrix(qa.to_rotation_matrix().matrix(), &aa, &Vec3::zeros()),
@@ -157,10 +169,17 @@ fn eta_classification_agrees_with_numerical_roots_and_perram_wertheim() {
             checked_eta1 += 1;
             // Wang et al.: separate ⇔ four real roots, two of them positive.
             let positive = real.iter().filter(|&&x| x > 0.0).count();
-            assert_eq!(scale > 1.0, real.len() == 4 && positive == 2, "roots {roots:?}");
+            assert_eq!(
+                scale > 1.0,
+                real.len() == 4 && positive == 2,
+                "roots {roots:?}"
+            );
         }
     }
-    assert!(separate > 500 && overlapping > 500, "{separate} {overlapping}");
+    assert!(
+        separate > 500 && overlapping > 500,
+        "{separate} {overlapping}"
+    );
     assert!(checked_eta1 > 2500, "{checked_eta1}");
 }
 
@@ -211,7 +230,14 @@ impl Pair {
             let dir = normal3(rng).normalize();
             let dr = dir * rng.gen_range(0.3..2.5);
             let dv = -dir * rng.gen_range(0.0..1.5) + normal3(rng) * 0.5;
-            let pair = Self { a, b, sa, sb, dr, dv };
+            let pair = Self {
+                a,
+                b,
+                sa,
+                sb,
+                dr,
+                dv,
+            };
             if pair.scale_at(0.0) > 1.001 {
                 return pair;
             }
@@ -231,7 +257,9 @@ impl Pair {
     }
 
     fn predict(&self, max_tau: f64) -> Option<f64> {
-        predict_ellipsoid_pair(&self.a, &self.b, &self.sa, &self.sb, &self.dr, &self.dv, 0.0, max_tau)
+        predict_ellipsoid_pair(
+            &self.a, &self.b, &self.sa, &self.sb, &self.dr, &self.dv, 0.0, max_tau,
+        )
     }
 }
 
@@ -256,8 +284,14 @@ fn predicted_contacts_are_never_late_and_are_touching() {
         }
         if let Some(tau) = predicted {
             let s = pair.scale_at(tau);
-            assert!(s >= 1.0 - 1e-9, "overlap {s} at the predicted contact {tau}");
-            assert!(s <= 1.0 + 1e-6, "not touching ({s}) at the predicted contact {tau}");
+            assert!(
+                s >= 1.0 - 1e-9,
+                "overlap {s} at the predicted contact {tau}"
+            );
+            assert!(
+                s <= 1.0 + 1e-6,
+                "not touching ({s}) at the predicted contact {tau}"
+            );
             contacts += 1;
         }
     }
@@ -335,7 +369,10 @@ fn near_grazing_pairs_are_caught_or_missed_correctly() {
                 assert!((1.0 - 1e-9..=1.0 + 1e-6).contains(&s), "scale {s}");
             } else if let Some(tau) = predicted {
                 // Missing by 1e-5 relative: a contact call must at least be touching.
-                assert!(pair.scale_at(tau) <= 1.0 + 1e-6, "spurious contact at {tau}");
+                assert!(
+                    pair.scale_at(tau) <= 1.0 + 1e-6,
+                    "spurious contact at {tau}"
+                );
             }
         }
     }
@@ -395,15 +432,26 @@ fn impulse_solves_the_twelve_equations_and_conserves_momenta() {
         assert!((on(&pair.a, &pair.sa, &pa) - 1.0).abs() < 1e-8);
         assert!((on(&pair.b, &pair.sb, &pb) - 1.0).abs() < 1e-8);
         let (mut sa, mut sb) = (pair.sa, pair.sb);
-        let j = ellipsoid_pair_impulse(&pair.a, &pair.b, &mut sa, &mut sb, &pair.dr, &dv, 0.0, ma, mb);
+        let j = ellipsoid_pair_impulse(
+            &pair.a, &pair.b, &mut sa, &mut sb, &pair.dr, &dv, 0.0, ma, mb,
+        );
         let (va1, vb1) = (va + j / ma, vb - j / mb);
         // The 12×12 system of Eq. 29–32: unknowns v_a, v_b, ω_a, ω_b after the impact.
-        let t1 = n.cross(&Vec3::x()).try_normalize(1e-6).unwrap_or_else(|| n.cross(&Vec3::y()).normalize());
+        let t1 = n
+            .cross(&Vec3::x())
+            .try_normalize(1e-6)
+            .unwrap_or_else(|| n.cross(&Vec3::y()).normalize());
         let t2 = n.cross(&t1);
-        let (ia, ib) = (inertia(&pair.a, &pair.sa, ma), inertia(&pair.b, &pair.sb, mb));
+        let (ia, ib) = (
+            inertia(&pair.a, &pair.sa, ma),
+            inertia(&pair.b, &pair.sb, mb),
+        );
         let mut sys = SMatrix::<f64, 12, 12>::zeros();
         let mut rhs = SVector::<f64, 12>::zeros();
-        for (row, (t, off, v)) in [(t1, 0, va), (t2, 0, va), (t1, 3, vb), (t2, 3, vb)].iter().enumerate() {
+        for (row, (t, off, v)) in [(t1, 0, va), (t2, 0, va), (t1, 3, vb), (t2, 3, vb)]
+            .iter()
+            .enumerate()
+        {
             for k in 0..3 {
                 sys[(row, off + k)] = t[k];
             }
@@ -414,10 +462,9 @@ fn impulse_solves_the_twelve_equations_and_conserves_momenta() {
             sys[(4, 3 + k)] = mb * n[k];
         }
         rhs[4] = ma * n.dot(&va) + mb * n.dot(&vb);
-        for (base, off_v, off_w, m, i, c, v, w) in [
-            (5, 0, 6, ma, ia, ca, va, wa),
-            (8, 3, 9, mb, ib, cb, vb, wb),
-        ] {
+        for (base, off_v, off_w, m, i, c, v, w) in
+            [(5, 0, 6, ma, ia, ca, va, wa), (8, 3, 9, mb, ib, cb, vb, wb)]
+        {
             let arm = skew(&(c - xc)) * m;
             sys.fixed_view_mut::<3, 3>(base, off_w).copy_from(&i);
             sys.fixed_view_mut::<3, 3>(base, off_v).copy_from(&arm);
@@ -437,8 +484,16 @@ fn impulse_solves_the_twelve_equations_and_conserves_momenta() {
         rhs[11] = -u + 2.0 * s_rate;
         let x = sys.lu().solve(&rhs).expect("the 12 equations are regular");
         let expect = |k: usize| Vec3::new(x[k], x[k + 1], x[k + 2]);
-        for (got, want) in [(va1, expect(0)), (vb1, expect(3)), (sa.omega, expect(6)), (sb.omega, expect(9))] {
-            assert!((got - want).norm() < 1e-8 * (1.0 + want.norm()), "{got} vs {want}");
+        for (got, want) in [
+            (va1, expect(0)),
+            (vb1, expect(3)),
+            (sa.omega, expect(6)),
+            (sb.omega, expect(9)),
+        ] {
+            assert!(
+                (got - want).norm() < 1e-8 * (1.0 + want.norm()),
+                "{got} vs {want}"
+            );
         }
         // Angular momentum about the origin and, without growth, energy are conserved.
         let l = |va: Vec3, vb: Vec3, wa: Vec3, wb: Vec3| {
@@ -448,7 +503,10 @@ fn impulse_solves_the_twelve_equations_and_conserves_momenta() {
         assert!((l0 - l1).norm() < 1e-9 * (1.0 + l0.norm()));
         if pair.a.g == 0.0 {
             let e = |va: Vec3, vb: Vec3, wa: Vec3, wb: Vec3| {
-                ma * va.norm_squared() + mb * vb.norm_squared() + wa.dot(&(ia * wa)) + wb.dot(&(ib * wb))
+                ma * va.norm_squared()
+                    + mb * vb.norm_squared()
+                    + wa.dot(&(ia * wa))
+                    + wb.dot(&(ib * wb))
             };
             let (e0, e1) = (e(va, vb, wa, wb), e(va1, vb1, sa.omega, sb.omega));
             assert!((e0 - e1).abs() < 1e-9 * e0, "{e0} {e1}");

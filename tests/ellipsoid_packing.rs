@@ -95,7 +95,10 @@ fn collisions_conserve_momentum_and_energy() {
         limits: Limits::default(),
         thermostat: true,
     };
-    assert_eq!(kernel.run_stage(&grow).stop_reason, StopReason::PackingFractionReached);
+    assert_eq!(
+        kernel.run_stage(&grow).stop_reason,
+        StopReason::PackingFractionReached
+    );
     let p0 = kernel.momentum();
     let e0 = kernel.kinetic_twice() + kernel.rotational_kinetic_twice();
     let rot0 = kernel.rotational_kinetic_twice();
@@ -119,7 +122,10 @@ fn collisions_conserve_momentum_and_energy() {
     // Collisions exchange energy between translation and rotation (equipartition: both
     // hold half of it on average), so the rotational part must have moved.
     let rot1 = kernel.rotational_kinetic_twice();
-    assert!(rot1 > 0.2 * e1 && rot1 < 0.8 * e1, "{rot0} → {rot1} of {e1}");
+    assert!(
+        rot1 > 0.2 * e1 && rot1 < 0.8 * e1,
+        "{rot0} → {rot1} of {e1}"
+    );
 }
 
 /// Prolate spheroids of aspect ratio 1.5 compressed to jamming land near φ ≈ 0.70–0.72
@@ -136,7 +142,10 @@ fn prolate_spheroids_jam_in_the_literature_range() {
     );
     let out = run_toml(&text);
     let phi = out.packing.stats.packing_fraction;
-    eprintln!("jammed at φ = {phi:.4}, Z = {:.3e}", out.packing.stats.reduced_pressure);
+    eprintln!(
+        "jammed at φ = {phi:.4}, Z = {:.3e}",
+        out.packing.stats.reduced_pressure
+    );
     assert!((0.68..=0.73).contains(&phi), "φ_J = {phi}");
     assert_valid(&out.packing);
 }
@@ -179,7 +188,10 @@ fn ellipsoids_touch_flat_walls_with_their_own_surface() {
             closest = closest.min(gap);
         }
     }
-    assert!(closest < 1e-3, "no ellipsoid reached a wall inside its bounding sphere");
+    assert!(
+        closest < 1e-3,
+        "no ellipsoid reached a wall inside its bounding sphere"
+    );
 }
 
 #[test]
@@ -218,7 +230,8 @@ fn bad_ellipsoid_scenes_name_the_field() {
                 periodic = [true, true, true]\n[particles]\ncount = 10\ndiameter = 1.0\n\
                 packing_fraction = 0.01";
     let stage = "[[stage]]\ngrowth = \"relative\"\nrate = 0.1\nuntil = { packing_fraction = 0.2 }";
-    let field = |ellipsoid: &str, body: &str| match Scene::from_toml(&scene(body, ellipsoid, stage)) {
+    let field = |ellipsoid: &str, body: &str| match Scene::from_toml(&scene(body, ellipsoid, stage))
+    {
         Err(SceneError::Invalid { field, .. }) => field,
         other => panic!("expected an invalid field, got {other:?}"),
     };
@@ -231,14 +244,23 @@ fn bad_ellipsoid_scenes_name_the_field() {
         "particles.ellipsoid.aspect_ratio_ranges[0]"
     );
     assert_eq!(
-        field("aspect_ratios = [2.0, 2.0]\naspect_ratio_ranges = [[1.0, 2.0], [1.0, 2.0]]", base),
+        field(
+            "aspect_ratios = [2.0, 2.0]\naspect_ratio_ranges = [[1.0, 2.0], [1.0, 2.0]]",
+            base
+        ),
         "particles.ellipsoid"
     );
     // Needles of aspect ratio 10 grown to φ = 0.2 in this box would break the minimum image.
-    assert_eq!(field("aspect_ratios = [10.0, 10.0]", base), "container.size");
+    assert_eq!(
+        field("aspect_ratios = [10.0, 10.0]", base),
+        "container.size"
+    );
     let cylinder = "seed = 1\n[container]\ntype = \"cylinder\"\nradius = 5.0\nheight = 10.0\n\
                     [particles]\ncount = 10\ndiameter = 1.0\npacking_fraction = 0.01";
-    assert_eq!(field("aspect_ratios = [2.0, 2.0]", cylinder), "container.type");
+    assert_eq!(
+        field("aspect_ratios = [2.0, 2.0]", cylinder),
+        "container.type"
+    );
     // Unknown keys are refused.
     assert!(matches!(
         Scene::from_toml(&scene(base, "aspect_ratio = [2.0, 2.0]", stage)),

@@ -617,7 +617,8 @@ impl Scene {
         if grows {
             for s in &self.stages {
                 if s.growth != GrowthKind::None {
-                    final_phi = final_phi.max(s.until.packing_fraction.unwrap_or(ELLIPSOID_MAX_FRACTION));
+                    final_phi =
+                        final_phi.max(s.until.packing_fraction.unwrap_or(ELLIPSOID_MAX_FRACTION));
                 }
             }
         }

@@ -66,9 +66,10 @@ fn semi_axes_of<R: Rng>(scene: &Scene, spec: &EllipsoidSpec, rng: &mut R) -> Vec
         .map(|d| {
             let [r1, r2] = match (spec.aspect_ratios, spec.aspect_ratio_ranges) {
                 (Some(r), _) => r,
-                (None, Some([[a0, a1], [b0, b1]])) => {
-                    [a0 + (a1 - a0) * rng.gen::<f64>(), b0 + (b1 - b0) * rng.gen::<f64>()]
-                }
+                (None, Some([[a0, a1], [b0, b1]])) => [
+                    a0 + (a1 - a0) * rng.gen::<f64>(),
+                    b0 + (b1 - b0) * rng.gen::<f64>(),
+                ],
                 (None, None) => [1.0, 1.0],
             };
             Vec3::from(EllipsoidSpec::semi_axes(d, r1, r2))

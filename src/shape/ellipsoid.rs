@@ -62,7 +62,6 @@ pub const MAX_STEPS: u32 = 500;
 
 static PREDICTION_FAILURES: AtomicU64 = AtomicU64::new(0);
 
-
 /// Number of ellipsoid predictions that hit [`MAX_STEPS`] or met a singular configuration
 /// since the process started (each was handled conservatively, never by a panic).
 pub fn prediction_failures() -> u64 {
@@ -242,7 +241,10 @@ fn support_along(shape: &Ellipsoid, spin: &Spin, dt: f64, t: f64, n: &Vec3) -> (
     let d2 = d.component_mul(&d);
     let mn = q.transform_vector(&d2.component_mul(&body));
     let h = n.dot(&mn).sqrt();
-    (h, h * shape.relative_growth(t) - spin.omega.dot(&n.cross(&mn)) / h)
+    (
+        h,
+        h * shape.relative_growth(t) - spin.omega.dot(&n.cross(&mn)) / h,
+    )
 }
 
 /// The Perram–Wertheim function and its first two λ-derivatives for separation `r`
@@ -252,7 +254,12 @@ fn support_along(shape: &Ellipsoid, spin: &Spin, dt: f64, t: f64, n: &Vec3) -> (
 /// `F' = (1−2λ) r·x − λ(1−λ) xᵀΔx`,
 /// `F'' = −2 r·x − 2(1−2λ) xᵀΔx + 2λ(1−λ) (Δx)ᵀG⁻¹(Δx)`.
 #[inline]
-fn pw_newton(ma: &Matrix3<f64>, mb: &Matrix3<f64>, r: &Vec3, lambda: f64) -> Option<(Vec3, f64, f64)> {
+fn pw_newton(
+    ma: &Matrix3<f64>,
+    mb: &Matrix3<f64>,
+    r: &Vec3,
+    lambda: f64,
+) -> Option<(Vec3, f64, f64)> {
     let g = ma * (1.0 - lambda) + mb * lambda;
     let inverse = symmetric_inverse(&g)?;
     let x = inverse * r;
@@ -325,7 +332,11 @@ fn pw_maximise(
 #[inline]
 fn certified_step(gap: f64, rate: f64, curvature: f64) -> f64 {
     if curvature <= 0.0 {
-        return if rate < 0.0 { gap / -rate } else { f64::INFINITY };
+        return if rate < 0.0 {
+            gap / -rate
+        } else {
+            f64::INFINITY
+        };
     }
     let root = (rate * rate + 2.0 * curvature * gap).sqrt();
     if rate < 0.0 {
@@ -810,7 +821,14 @@ impl Collidable for Ellipsoid {
 
     /// Impulse at the support point `−Mn/h` facing the wall, reflecting its normal velocity
     /// against the growth of the surface there; virial `J·h`.
-    fn plane_impulse(&self, spin: &mut Spin, n: &Vec3, vel: &Vec3, t: f64, mass: f64) -> (Vec3, f64) {
+    fn plane_impulse(
+        &self,
+        spin: &mut Spin,
+        n: &Vec3,
+        vel: &Vec3,
+        t: f64,
+        mass: f64,
+    ) -> (Vec3, f64) {
         let rot = spin.rotation();
         let m = self.shape_matrix(&rot, t);
         let mn = m * n;
@@ -844,7 +862,14 @@ mod tests {
             orientation: UnitQuaternion::from_scaled_axis(Vec3::new(-0.8, 0.2, 1.4)),
             omega: Vec3::new(4.7, 2.6, -1.3),
         };
-        (a, a, sa, sb, Vec3::new(-0.29, -0.35, -1.14), Vec3::new(0.13, 2.18, 0.51))
+        (
+            a,
+            a,
+            sa,
+            sb,
+            Vec3::new(-0.29, -0.35, -1.14),
+            Vec3::new(0.13, 2.18, 0.51),
+        )
     }
 
     #[test]

@@ -79,7 +79,8 @@ pub fn pencil_coefficients(
     let mut bm = Matrix4::zeros();
     bm.fixed_view_mut::<3, 3>(0, 0).copy_from(&s);
     bm.fixed_view_mut::<3, 1>(0, 3).copy_from(&(-sc));
-    bm.fixed_view_mut::<1, 3>(3, 0).copy_from(&(-sc.transpose()));
+    bm.fixed_view_mut::<1, 3>(3, 0)
+        .copy_from(&(-sc.transpose()));
     bm[(3, 3)] = centre.dot(&sc) - 1.0;
     let am = Matrix4::from_diagonal(&nalgebra::Vector4::new(1.0, 1.0, 1.0, -1.0));
     pencil_polynomial(&am, &bm)

@@ -159,7 +159,8 @@ mod tests {
     fn growing_resting_spheres_meet_when_radii_fill_gap() {
         let a = Sphere { r0: 1.0, g: 0.25 };
         let dr = Vec3::new(0.0, 3.0, 0.0);
-        let tau = Sphere::predict_collision(&a, &a, &(), &(), &dr, &Vec3::zeros(), 0.0, 10.0).unwrap();
+        let tau =
+            Sphere::predict_collision(&a, &a, &(), &(), &dr, &Vec3::zeros(), 0.0, 10.0).unwrap();
         assert!((tau - 2.0).abs() < 1e-14, "{tau}");
     }
 
