@@ -285,7 +285,7 @@ pub fn verify(packing: &Packing) -> Verification {
                             if out.min_pair_gap_relative.is_none_or(|m| rel < m) {
                                 out.min_pair_gap_relative = Some(rel);
                             }
-                            if scale < 1.0 - TOLERANCE {
+                            if scale.is_nan() || scale < 1.0 - TOLERANCE {
                                 violate(
                                     &mut out,
                                     format!(
