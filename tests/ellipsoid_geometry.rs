@@ -517,3 +517,35 @@ fn impulse_solves_the_twelve_equations_and_conserves_momenta() {
     }
     assert!(tested > 100, "{tested}");
 }
+
+#[test]
+fn characteristic_predictor_agrees_with_the_certified_one() {
+    use densepack::shape::Predictor;
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(8);
+    let mut contacts = 0;
+    for k in 0..1500 {
+        let pair = Pair::random(&mut rng, if k % 3 == 0 { 30.0 } else { 4.0 });
+        let certified = pair.predict(2.0);
+        let a = Ellipsoid {
+            predictor: Predictor::Characteristic,
+            ..pair.a
+        };
+        let b = Ellipsoid {
+            predictor: Predictor::Characteristic,
+            ..pair.b
+        };
+        let paper =
+            predict_ellipsoid_pair(&a, &b, &pair.sa, &pair.sb, &pair.dr, &pair.dv, 0.0, 2.0);
+        match (certified, paper) {
+            (None, None) => {}
+            (Some(x), Some(y)) => {
+                assert!((x - y).abs() < 1e-6 * (1.0 + x), "{x} vs {y}");
+                let s = pair.scale_at(y);
+                assert!((1.0 - 1e-9..=1.0 + 1e-6).contains(&s), "scale {s} at {y}");
+                contacts += 1;
+            }
+            other => panic!("predictors disagree: {other:?}"),
+        }
+    }
+    assert!(contacts > 300, "{contacts}");
+}
