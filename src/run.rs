@@ -2,7 +2,7 @@
 //!
 //! [`run_scene`] picks the container and queue types from the scene once and runs a kernel
 //! monomorphised for them: a fully periodic box gets [`PeriodicBox`] (no wall code at all).
-//! Ellipsoid scenes go through [`ellipsoid`] with the same stage loop ([`run_stages`]).
+//! Ellipsoid scenes go through [`ellipsoid`] with the same stage loop.
 
 pub mod ellipsoid;
 
