@@ -788,7 +788,7 @@ impl Collidable for Ellipsoid {
         let start = if distance <= s {
             0.0
         } else {
-            first_falling_root(0.0, -sphere_rate, distance - s)?
+            first_falling_root(0.0, -0.5 * sphere_rate, distance - s)?
         };
         if start > max_tau {
             return None;
@@ -917,5 +917,58 @@ mod tests {
         let h = 1e-6;
         let numeric = (gap_n(tau + h) - gap_n(tau - h)) / (2.0 * h);
         assert!((rate - numeric).abs() < 1e-6, "{rate} {numeric}");
+    }
+
+    #[test]
+    fn plane_contact_of_a_translating_ellipsoid_is_exact() {
+        let e = Ellipsoid::new(Vec3::new(2.0, 1.0, 1.0));
+        let spin = Spin::default();
+        // Long axis along the wall normal: the tip touches when the centre is 2 away.
+        let tau = e
+            .predict_plane_contact(&spin, &Vec3::x(), 5.0, -1.5, 0.0, 10.0)
+            .unwrap();
+        assert!((tau - 2.0).abs() < 1e-12, "{tau}");
+        // Moving away: never.
+        assert_eq!(
+            e.predict_plane_contact(&spin, &Vec3::x(), 5.0, 0.5, 0.0, 10.0),
+            None
+        );
+    }
+
+    #[test]
+    fn plane_contact_of_a_rotating_growing_ellipsoid_matches_a_scan() {
+        let e = Ellipsoid {
+            g: 0.1,
+            ..Ellipsoid::new(Vec3::new(1.0, 0.3, 0.2))
+        };
+        let spin = Spin {
+            orientation: UnitQuaternion::from_scaled_axis(Vec3::new(0.4, 1.2, -0.3)),
+            omega: Vec3::new(0.3, 2.0, -1.1),
+        };
+        let n = Vec3::z();
+        let (distance, u) = (2.5, -0.4);
+        // Independent gap: half-width along z of the posed ellipsoid, √(Σ (R_zk a_k)²).
+        let gap = |tau: f64| {
+            let q = UnitQuaternion::from_scaled_axis(spin.omega * tau) * spin.orientation;
+            let r = q.to_rotation_matrix();
+            let a = e.semi_axes(tau);
+            let half = (0..3)
+                .map(|k| (r[(2, k)] * a[k]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            distance + u * tau - half
+        };
+        let predicted = e
+            .predict_plane_contact(&spin, &n, distance, u, 0.0, 20.0)
+            .unwrap();
+        let first = (1..=200_000)
+            .map(|i| i as f64 * 1e-4)
+            .find(|&tau| gap(tau) < 0.0)
+            .unwrap();
+        assert!(
+            predicted <= first && first - predicted < 2e-4,
+            "{predicted} vs {first}"
+        );
+        assert!(gap(predicted).abs() < 1e-9, "{}", gap(predicted));
     }
 }
