@@ -19,6 +19,10 @@
 //!    *cell transfer* of the cell method) and predicts against the new neighbours: its
 //!    trajectory did not change, so events of others that name it stay valid.
 //!
+//! Shapes that rotate carry their orientation and angular velocity in the delayed state too
+//! ([`Collidable::Spin`]); the kernel advances it with the centre and hands it to the shape's
+//! predictions and impulses without knowing what it is (`()` for spheres).
+//!
 //! # Neighbour lists
 //! Each particle `i` owns a neighbour-list sphere: centre `c_i` (its position when the list
 //! was built) and radius `R_i = r_i + skin·min(r_i, r̄)` (`r̄` the mean radius), and stays

@@ -710,8 +710,10 @@ impl Collidable for Ellipsoid {
         }
         // Eq. 10–11: compose with the rotation by |ω|·Δt about ω/|ω| (applied in the world
         // frame, after the current orientation).
+        // Renormalised so that rounding cannot accumulate over millions of compositions.
+        let q = UnitQuaternion::from_scaled_axis(spin.omega * dt) * spin.orientation;
         Spin {
-            orientation: UnitQuaternion::from_scaled_axis(spin.omega * dt) * spin.orientation,
+            orientation: UnitQuaternion::new_normalize(q.into_inner()),
             omega: spin.omega,
         }
     }
