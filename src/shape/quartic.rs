@@ -17,7 +17,9 @@
 //! - `η2 = −D/64 = 12p̄1⁴ − 24p̄1²p̄2 + 9p̄2² + 4p̄1p̄3 − p̄4` and `η5 = p̄1² − p̄2 = −P/48`,
 //!   with `P = 8p1p3 − 3p2²` and `D = 64p1³p5 − 16p1²p3² + 16p1p2²p3 − 16p1²p2p4 − 3p2⁴`
 //!   the standard quartic discriminants: for `η1 > 0` the roots are all real iff `η2 > 0`
-//!   and `η5 > 0` (Table 1's "separate" rows require exactly these signs).
+//!   and `η5 > 0`. This is the role Table 1 gives its η2 and η5 in the "separate" rows; the
+//!   extracted η2 formula is replaced by this one, and η3, η4 (which only split the tangent
+//!   cases) are not needed: tangency is the boundary `η1 = 0` reached from "separate".
 //!
 //! Whether two of the real roots are positive follows from Descartes' rule, exact when all
 //! roots are real. Unit tests check the coefficients against a numerical determinant and the
