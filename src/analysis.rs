@@ -50,11 +50,17 @@ pub struct SievePoint {
 }
 
 /// Diameter used for sieving a particle (the smallest square mesh it passes: for a sphere its
-/// diameter, for a cylinder its diameter too, passed axis first).
+/// diameter, for a cylinder its diameter too, passed axis first; for an ellipsoid twice its
+/// middle semi-axis).
 pub fn sieve_diameter(p: &ParticleRecord) -> f64 {
     match p {
         ParticleRecord::Sphere { radius, .. } | ParticleRecord::Cylinder { radius, .. } => {
             2.0 * radius
+        }
+        ParticleRecord::Ellipsoid { semi_axes, .. } => {
+            let mut a = *semi_axes;
+            a.sort_by(f64::total_cmp);
+            2.0 * a[1]
         }
     }
 }

@@ -2,6 +2,9 @@
 //!
 //! [`run_scene`] picks the container and queue types from the scene once and runs a kernel
 //! monomorphised for them: a fully periodic box gets [`PeriodicBox`] (no wall code at all).
+//! Ellipsoid scenes go through [`ellipsoid`] with the same stage loop.
+
+pub mod ellipsoid;
 
 use crate::boundary::{Boundary, CylinderContainer, PeriodicBox, WalledBox};
 use crate::io::packing::{
@@ -11,7 +14,7 @@ use crate::io::scene::{ContainerSpec, Method, Scene};
 use crate::kernel::{Edmd, KernelConfig, Progress, StageReport, StopReason};
 use crate::protocol::rsa::{rsa_spheres, RsaFailure};
 use crate::queue::{CalendarQueue, EventQueue, HeapQueue, QueueKind};
-use crate::shape::{Sphere, Vec3};
+use crate::shape::{Collidable, Sphere, Vec3};
 use crate::verify::{verify, Verification};
 use rand::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -52,6 +55,9 @@ pub enum RunError {
         /// Reports of the stages so far.
         stages: Vec<StageReport>,
     },
+    /// The scene asks for something this build cannot run (e.g. ellipsoids in a cylinder).
+    #[error("{0}")]
+    Unsupported(String),
     /// The independent check found overlaps: a kernel bug; nothing is written.
     #[error("the independent overlap check rejected the packing: {0}")]
     Verification(String),
@@ -72,6 +78,9 @@ pub fn run_scene_observed(
     on_stage: &mut dyn FnMut(usize, &StageReport),
     on_progress: &mut dyn FnMut(usize, &Progress),
 ) -> Result<RunOutcome, RunError> {
+    if scene.particles.ellipsoid.is_some() {
+        return ellipsoid::run_ellipsoid_scene(scene, on_stage, on_progress);
+    }
     match &scene.container {
         ContainerSpec::Box {
             min,
@@ -202,12 +211,13 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
     )?;
     let seeding_seconds = started.elapsed().as_secs_f64();
     if scene.method == Method::Rsa {
-        let placed = Placed {
+        let placed = Placed::spheres(
+            &boundary,
             centres,
-            radii,
-            min_gap: rsa_gap,
-            wall_gap: scene.particles.wall_gap,
-        };
+            &radii,
+            rsa_gap,
+            scene.particles.wall_gap,
+        );
         let stats = RunStats {
             reduced_pressure: None,
             events: 0,
@@ -216,9 +226,10 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
             stop_reason: "rsa_complete",
             extra: serde_json::Map::new(),
         };
+        let container = boundary.record();
         return finish(
             scene,
-            boundary.record(),
+            container,
             &boundary,
             placed,
             stats,
@@ -232,30 +243,102 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
         .sum::<f64>()
         / boundary.volume();
     let shapes = radii.iter().map(|&r| Sphere::new(r)).collect();
-    let config = KernelConfig {
+    let original = boundary.clone();
+    let mut kernel: Edmd<Sphere, B, Q> =
+        Edmd::new(centres, shapes, boundary, kernel_config(scene), &mut rng);
+    let done = run_stages(
+        scene,
+        &mut kernel,
+        full_size_fraction,
+        on_stage,
+        on_progress,
+    )?;
+    let mut centres = vec![Vec3::zeros(); kernel.particles().len()];
+    for (p, &id) in kernel.particles().iter().zip(kernel.original_indices()) {
+        centres[id as usize] = p.pos;
+    }
+    let grown = radii_by_id(&kernel);
+    drop(kernel); // the verification's own index should not add to the kernel's peak memory
+    let (radii, min_gap, wall_gap) = match done.gap {
+        // Every radius gained the same at the absolute rate; the guaranteed gap is twice
+        // the smallest gain (they differ only by rounding), and the gain less how far the
+        // walls stepped back to the walls.
+        Some(GapOpened {
+            true_radii,
+            walls_moved,
+        }) => {
+            let gain = grown
+                .iter()
+                .zip(&true_radii)
+                .map(|(g, t)| g - t)
+                .fold(f64::INFINITY, f64::min)
+                .max(0.0);
+            let wall_gap = (walls_moved > 0.0).then(|| (gain - walls_moved).max(0.0));
+            (true_radii, 2.0 * gain, wall_gap)
+        }
+        None => (grown, 0.0, None),
+    };
+    let placed = Placed::spheres(&original, centres, &radii, min_gap, wall_gap);
+    let stats = RunStats::of_stages(&done.reports, radii.len());
+    finish(
+        scene,
+        original.record(),
+        &original,
+        placed,
+        stats,
+        done.reports,
+        seeding_seconds,
+    )
+}
+
+/// The kernel settings of a scene.
+fn kernel_config(scene: &Scene) -> KernelConfig {
+    KernelConfig {
         mass: scene.mass,
         temperature: scene.temperature,
         events_per_particle_per_interval: scene.events_per_particle_per_interval,
         neighbour_skin: scene.neighbour_skin,
-    };
-    let mut kernel: Edmd<Sphere, B, Q> = Edmd::new(centres, shapes, boundary, config, &mut rng);
+    }
+}
+
+/// The stages of a run, and the gap stage's starting point if one ran.
+struct StagesDone {
+    reports: Vec<StageReport>,
+    gap: Option<GapOpened>,
+}
+
+/// Where a gap stage started: the (bounding) radii by seeding order, and how far the walls
+/// stepped back for it.
+struct GapOpened {
+    true_radii: Vec<f64>,
+    walls_moved: f64,
+}
+
+/// Runs the scene's stages in order; the first stage that misses its goal fails the run.
+/// `full_size_fraction` is the packing fraction of the particles at their true sizes.
+fn run_stages<S: Collidable, B: Boundary + SceneContainer, Q: EventQueue>(
+    scene: &Scene,
+    kernel: &mut Edmd<S, B, Q>,
+    full_size_fraction: f64,
+    on_stage: &mut dyn FnMut(usize, &StageReport),
+    on_progress: &mut dyn FnMut(usize, &Progress),
+) -> Result<StagesDone, RunError> {
     let mut reports: Vec<StageReport> = Vec::new();
-    // Radii when a gap stage starts: the sizes written for a packing with a gap.
-    let mut true_radii: Option<Vec<f64>> = None;
-    let container = kernel.boundary().record();
+    let mut gap = None;
     let original = kernel.boundary().clone();
-    // How far the walls stepped back for a gap stage that keeps less than half the gap to
-    // them.
-    let mut walls_moved = 0.0;
     for (k, spec) in scene.stages.iter().enumerate() {
         if spec.opens_gap() {
-            true_radii = Some(radii_by_id(&kernel));
-            if let (Some(gap), Some(wall_gap)) = (spec.until.gap, spec.wall_gap) {
-                walls_moved = 0.5 * gap - wall_gap;
+            let mut walls_moved = 0.0;
+            if let (Some(g), Some(wall_gap)) = (spec.until.gap, spec.wall_gap) {
+                walls_moved = 0.5 * g - wall_gap;
                 if walls_moved > 0.0 {
                     kernel.replace_boundary(original.expanded(walls_moved));
                 }
             }
+            gap = Some(GapOpened {
+                true_radii: radii_by_id(kernel),
+                walls_moved,
+            });
         }
         let report = kernel.run_stage_observed(&spec.to_stage(full_size_fraction), &mut |p| {
             on_progress(k, p)
@@ -283,70 +366,7 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
             });
         }
     }
-    let mut centres = vec![Vec3::zeros(); kernel.particles().len()];
-    for (p, &id) in kernel.particles().iter().zip(kernel.original_indices()) {
-        centres[id as usize] = p.pos;
-    }
-    let grown = radii_by_id(&kernel);
-    let (radii, min_gap, wall_gap) = match true_radii {
-        // Every radius gained the same at the absolute rate; the guaranteed gap is twice
-        // the smallest gain (they differ only by rounding), and the gain less how far the
-        // walls stepped back to the walls.
-        Some(true_radii) => {
-            let gain = grown
-                .iter()
-                .zip(&true_radii)
-                .map(|(g, t)| g - t)
-                .fold(f64::INFINITY, f64::min)
-                .max(0.0);
-            let wall_gap = (walls_moved > 0.0).then(|| (gain - walls_moved).max(0.0));
-            (true_radii, 2.0 * gain, wall_gap)
-        }
-        None => (grown, 0.0, None),
-    };
-    let last = reports.last().expect("a scene has at least one stage");
-    let events: u64 = reports.iter().map(|r| r.counts.events).sum();
-    let collisions: u64 = reports.iter().map(|r| r.counts.collisions).sum();
-    let wall_seconds: f64 = reports.iter().map(|r| r.wall_seconds).sum();
-    let n = centres.len().max(1) as f64;
-    let mut extra = serde_json::Map::new();
-    extra.insert(
-        "collisions_per_particle".into(),
-        serde_json::json!(collisions as f64 / n),
-    );
-    extra.insert(
-        "events_per_second".into(),
-        serde_json::json!(events as f64 / wall_seconds.max(1e-12)),
-    );
-    extra.insert(
-        "reduced_pressure_stderr".into(),
-        serde_json::json!(last.reduced_pressure_stderr),
-    );
-    extra.insert("stages".into(), serde_json::json!(reports));
-    let stats = RunStats {
-        reduced_pressure: Some(last.reduced_pressure),
-        events,
-        collisions,
-        wall_seconds,
-        stop_reason: last.stop_reason.as_str(),
-        extra,
-    };
-    drop(kernel); // the verification's own index should not add to the kernel's peak memory
-    let placed = Placed {
-        centres,
-        radii,
-        min_gap,
-        wall_gap,
-    };
-    finish(
-        scene,
-        container,
-        &original,
-        placed,
-        stats,
-        reports,
-        seeding_seconds,
-    )
+    Ok(StagesDone { reports, gap })
 }
 
 /// Where a packing came from: this program, the resolved scene, the seed, the timings.
@@ -362,22 +382,56 @@ fn provenance(scene: &impl serde::Serialize, seed: u64, timings: Timings) -> Pro
     }
 }
 
-/// Radii of the kernel's spheres, in the order of the seeding.
-fn radii_by_id<B: Boundary, Q: EventQueue>(kernel: &Edmd<Sphere, B, Q>) -> Vec<f64> {
+/// Bounding radii of the kernel's particles (the radius of a sphere), in seeding order.
+fn radii_by_id<S: Collidable, B: Boundary, Q: EventQueue>(kernel: &Edmd<S, B, Q>) -> Vec<f64> {
     let mut radii = vec![0.0; kernel.particles().len()];
     for (p, &id) in kernel.particles().iter().zip(kernel.original_indices()) {
-        radii[id as usize] = p.shape.radius(0.0);
+        radii[id as usize] = p.shape.bounding_radius(0.0);
     }
     radii
 }
 
-/// Final sphere centres and radii (seeding order) and the gaps they guarantee.
+/// The particles of a finished run (seeding order) and the gaps they guarantee.
 struct Placed {
-    centres: Vec<Vec3>,
-    radii: Vec<f64>,
+    particles: Vec<ParticleRecord>,
+    /// Total particle volume.
+    volume: f64,
     min_gap: f64,
     /// Gap to the walls when it is not `min_gap / 2`.
     wall_gap: Option<f64>,
+}
+
+impl Placed {
+    /// Spheres with these centres (wrapped into `boundary`) and radii.
+    fn spheres<B: Boundary>(
+        boundary: &B,
+        centres: Vec<Vec3>,
+        radii: &[f64],
+        min_gap: f64,
+        wall_gap: Option<f64>,
+    ) -> Self {
+        let particles = centres
+            .into_iter()
+            .zip(radii)
+            .map(|(mut c, &r)| {
+                boundary.wrap(&mut c);
+                ParticleRecord::Sphere {
+                    center: c.into(),
+                    radius: r,
+                }
+            })
+            .collect();
+        let volume = radii
+            .iter()
+            .map(|r| 4.0 / 3.0 * std::f64::consts::PI * r * r * r)
+            .sum();
+        Self {
+            particles,
+            volume,
+            min_gap,
+            wall_gap,
+        }
+    }
 }
 
 /// What a run reports besides the particles.
@@ -390,6 +444,38 @@ struct RunStats {
     extra: serde_json::Map<String, serde_json::Value>,
 }
 
+impl RunStats {
+    /// The statistics of an EDMD run of `n` particles from its stage reports.
+    fn of_stages(reports: &[StageReport], n: usize) -> Self {
+        let last = reports.last().expect("a scene has at least one stage");
+        let events: u64 = reports.iter().map(|r| r.counts.events).sum();
+        let collisions: u64 = reports.iter().map(|r| r.counts.collisions).sum();
+        let wall_seconds: f64 = reports.iter().map(|r| r.wall_seconds).sum();
+        let mut extra = serde_json::Map::new();
+        extra.insert(
+            "collisions_per_particle".into(),
+            serde_json::json!(collisions as f64 / n.max(1) as f64),
+        );
+        extra.insert(
+            "events_per_second".into(),
+            serde_json::json!(events as f64 / wall_seconds.max(1e-12)),
+        );
+        extra.insert(
+            "reduced_pressure_stderr".into(),
+            serde_json::json!(last.reduced_pressure_stderr),
+        );
+        extra.insert("stages".into(), serde_json::json!(reports));
+        Self {
+            reduced_pressure: Some(last.reduced_pressure),
+            events,
+            collisions,
+            wall_seconds,
+            stop_reason: last.stop_reason.as_str(),
+            extra,
+        }
+    }
+}
+
 /// Builds the packing, checks it independently and returns it.
 fn finish<B: Boundary>(
     scene: &Scene,
@@ -400,33 +486,16 @@ fn finish<B: Boundary>(
     stages: Vec<StageReport>,
     seeding_seconds: f64,
 ) -> Result<RunOutcome, RunError> {
-    let particles: Vec<ParticleRecord> = placed
-        .centres
-        .into_iter()
-        .zip(&placed.radii)
-        .map(|(mut c, &r)| {
-            boundary.wrap(&mut c);
-            ParticleRecord::Sphere {
-                center: c.into(),
-                radius: r,
-            }
-        })
-        .collect();
-    let volume: f64 = placed
-        .radii
-        .iter()
-        .map(|r| 4.0 / 3.0 * std::f64::consts::PI * r * r * r)
-        .sum();
     let mut packing = Packing {
         format: FORMAT.into(),
         version: 1,
         container,
-        particles,
+        particles: placed.particles,
         min_gap: placed.min_gap,
         wall_gap: placed.wall_gap,
         seed: scene.seed,
         stats: PackingStats {
-            packing_fraction: volume / boundary.volume(),
+            packing_fraction: placed.volume / boundary.volume(),
             reduced_pressure: stats.reduced_pressure,
             events: stats.events,
             collisions: stats.collisions,

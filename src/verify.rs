@@ -13,6 +13,16 @@
 //! the closed-form support functions — found by GJK on the support maps (the simplex's
 //! nearest point by trying every face). A pair without a certificate is a violation, so the
 //! check can reject a valid packing but never accept an overlapping one.
+//!
+//! Ellipsoids (and spheres paired with them) are checked with the Perram–Wertheim contact
+//! function `F(λ) = λ(1−λ) dᵀ[(1−λ)M_i + λM_j]⁻¹d`, `M = R·diag(a², b², c²)·Rᵀ`, maximised over
+//! `λ ∈ [0, 1]` by golden-section search: `√max F` is the factor by which both must be scaled
+//! about their centres to touch, so a pair is accepted when it is at least `1 − tol`. This is
+//! a different method from the kernel's prediction (characteristic polynomial / certified
+//! separating-axis steps) and shares no code with it: the rotation matrix, the 3×3 inverse and
+//! the search are written here. An ellipsoid's distance to a box wall or a cylinder cap is the
+//! closed form `|c − wall| − √(nᵀMn)`; against a cylinder mantle its bounding sphere is used
+//! (conservative).
 
 use crate::io::packing::{ContainerRecord, Packing, ParticleRecord};
 use nalgebra::Vector3;
@@ -60,6 +70,12 @@ struct Ball {
     r: f64,
 }
 
+/// An ellipsoid as the verification sees it: `M = R·diag(a², b², c²)·Rᵀ` and its volume.
+struct Oriented {
+    m: [[f64; 3]; 3],
+    volume: f64,
+}
+
 /// Checks a packing; never trusts anything the simulation computed.
 pub fn verify(packing: &Packing) -> Verification {
     if packing
@@ -72,14 +88,23 @@ pub fn verify(packing: &Packing) -> Verification {
     let balls: Vec<Ball> = packing
         .particles
         .iter()
-        .filter_map(|p| match p {
-            ParticleRecord::Sphere { center, radius } => Some(Ball {
+        .map(|p| match p {
+            ParticleRecord::Sphere { center, radius } => Ball {
                 c: *center,
                 r: *radius,
-            }),
-            _ => None,
+            },
+            ParticleRecord::Ellipsoid {
+                center, semi_axes, ..
+            } => Ball {
+                c: *center,
+                r: semi_axes.iter().copied().fold(f64::NAN, f64::max),
+            },
+            ParticleRecord::Cylinder { .. } => {
+                unreachable!("packings with cylinders go to verify_convex")
+            }
         })
         .collect();
+    let oriented: Vec<Option<Oriented>> = packing.particles.iter().map(oriented_of).collect();
     let gap = packing.min_gap;
     let wall_gap = packing.wall_gap();
     let mut out = Verification {
@@ -132,18 +157,40 @@ pub fn verify(packing: &Packing) -> Verification {
             std::f64::consts::PI * radius * radius * height,
         ),
     };
+    for (i, p) in packing.particles.iter().enumerate() {
+        if let ParticleRecord::Ellipsoid {
+            semi_axes,
+            orientation,
+            ..
+        } = p
+        {
+            let norm = orientation.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if !(semi_axes.iter().all(|a| a.is_finite() && *a > 0.0) && (norm - 1.0).abs() < 1e-9) {
+                violate(
+                    &mut out,
+                    format!("particle {i}: semi-axes ≤ 0 or orientation not a unit quaternion"),
+                );
+            }
+        }
+    }
     let sphere_volume: f64 = balls
         .iter()
-        .map(|b| 4.0 / 3.0 * std::f64::consts::PI * b.r.powi(3))
+        .zip(&oriented)
+        .map(|(b, o)| match o {
+            Some(e) => e.volume,
+            None => 4.0 / 3.0 * std::f64::consts::PI * b.r.powi(3),
+        })
         .sum();
     out.packing_fraction = sphere_volume / volume;
 
     // Containment.
     for (i, b) in balls.iter().enumerate() {
+        // Half-width of the particle along axis k (the radius for a sphere).
+        let half = |k: usize| oriented[i].as_ref().map_or(b.r, |e| e.m[k][k].sqrt());
         let wall_distance = match &packing.container {
             ContainerRecord::Box { .. } => (0..3)
                 .filter(|&k| !periodic[k])
-                .map(|k| (b.c[k] - lo[k]).min(hi[k] - b.c[k]))
+                .map(|k| (b.c[k] - lo[k]).min(hi[k] - b.c[k]) - half(k) + b.r)
                 .fold(f64::INFINITY, f64::min),
             ContainerRecord::Cylinder {
                 base_center,
@@ -152,7 +199,7 @@ pub fn verify(packing: &Packing) -> Verification {
             } => {
                 let rho = (b.c[0] - base_center[0]).hypot(b.c[1] - base_center[1]);
                 let z = b.c[2] - base_center[2];
-                (radius - rho).min(z).min(height - z)
+                (radius - rho).min(z.min(height - z) - half(2) + b.r)
             }
         };
         for k in 0..3 {
@@ -242,12 +289,38 @@ pub fn verify(packing: &Packing) -> Verification {
                         }
                         let bj = &balls[j];
                         let mut d2 = 0.0;
+                        let mut dv = [0.0; 3];
                         for k in 0..3 {
                             let mut d = bi.c[k] - bj.c[k];
                             if periodic[k] {
                                 d -= len[k] * (d / len[k]).round();
                             }
+                            dv[k] = d;
                             d2 += d * d;
+                        }
+                        if oriented[i].is_some() || oriented[j].is_some() {
+                            if d2 >= (bi.r + bj.r).powi(2) {
+                                continue; // bounding spheres apart
+                            }
+                            let scale = contact_scale(
+                                &shape_matrix_of(&oriented[i], bi.r),
+                                &shape_matrix_of(&oriented[j], bj.r),
+                                &dv,
+                            );
+                            let rel = scale - 1.0;
+                            if out.min_pair_gap_relative.is_none_or(|m| rel < m) {
+                                out.min_pair_gap_relative = Some(rel);
+                            }
+                            if scale.is_nan() || scale < 1.0 - TOLERANCE {
+                                violate(
+                                    &mut out,
+                                    format!(
+                                        "particles {i} and {j} overlap: they touch only when \
+                                         scaled by {scale} (Perram–Wertheim)"
+                                    ),
+                                );
+                            }
+                            continue;
                         }
                         let dist = d2.sqrt();
                         let sum = bi.r + bj.r;
@@ -627,4 +700,105 @@ pub fn verify_convex(packing: &Packing) -> Verification {
         }
     }
     out
+}
+
+/// The verification's view of an ellipsoid record (`None` for a sphere).
+fn oriented_of(p: &ParticleRecord) -> Option<Oriented> {
+    let ParticleRecord::Ellipsoid {
+        semi_axes,
+        orientation,
+        ..
+    } = p
+    else {
+        return None;
+    };
+    let n = orientation.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let [w, x, y, z] = orientation.map(|q| q / n);
+    // Rotation matrix of a unit quaternion (paper 004, Eq. 5a).
+    let r = [
+        [
+            1.0 - 2.0 * (y * y + z * z),
+            2.0 * (x * y - w * z),
+            2.0 * (x * z + w * y),
+        ],
+        [
+            2.0 * (x * y + w * z),
+            1.0 - 2.0 * (x * x + z * z),
+            2.0 * (y * z - w * x),
+        ],
+        [
+            2.0 * (x * z - w * y),
+            2.0 * (y * z + w * x),
+            1.0 - 2.0 * (x * x + y * y),
+        ],
+    ];
+    let mut m = [[0.0; 3]; 3];
+    for (i, row) in m.iter_mut().enumerate() {
+        for (j, v) in row.iter_mut().enumerate() {
+            *v = (0..3)
+                .map(|k| r[i][k] * r[j][k] * semi_axes[k] * semi_axes[k])
+                .sum();
+        }
+    }
+    Some(Oriented {
+        m,
+        volume: 4.0 / 3.0 * std::f64::consts::PI * semi_axes[0] * semi_axes[1] * semi_axes[2],
+    })
+}
+
+/// `M` of a particle: its ellipsoid's, or `r²·I` for a sphere of radius `r`.
+fn shape_matrix_of(o: &Option<Oriented>, r: f64) -> [[f64; 3]; 3] {
+    match o {
+        Some(e) => e.m,
+        None => [[r * r, 0.0, 0.0], [0.0, r * r, 0.0], [0.0, 0.0, r * r]],
+    }
+}
+
+/// `√max_λ F(λ)` of the Perram–Wertheim function for centres `d` apart: the factor by which
+/// both particles must be scaled about their centres to touch (`< 1`: overlap).
+/// `F` is concave in λ, so golden-section search finds the maximum.
+pub fn contact_scale(mi: &[[f64; 3]; 3], mj: &[[f64; 3]; 3], d: &[f64; 3]) -> f64 {
+    let f = |l: f64| -> f64 {
+        let mut g = [[0.0; 3]; 3];
+        for a in 0..3 {
+            for b in 0..3 {
+                g[a][b] = (1.0 - l) * mi[a][b] + l * mj[a][b];
+            }
+        }
+        // dᵀG⁻¹d by the adjugate: G⁻¹ = adj(G)/det(G).
+        let c = |a: usize, b: usize| {
+            let (a1, a2) = ((a + 1) % 3, (a + 2) % 3);
+            let (b1, b2) = ((b + 1) % 3, (b + 2) % 3);
+            g[a1][b1] * g[a2][b2] - g[a1][b2] * g[a2][b1]
+        };
+        let det = g[0][0] * c(0, 0) + g[0][1] * c(0, 1) + g[0][2] * c(0, 2);
+        let mut q = 0.0;
+        for a in 0..3 {
+            for b in 0..3 {
+                q += d[a] * c(b, a) * d[b];
+            }
+        }
+        l * (1.0 - l) * q / det
+    };
+    let ratio = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut lo, mut hi) = (0.0, 1.0);
+    let mut x1 = hi - ratio * (hi - lo);
+    let mut x2 = lo + ratio * (hi - lo);
+    let (mut f1, mut f2) = (f(x1), f(x2));
+    for _ in 0..80 {
+        if f1 < f2 {
+            lo = x1;
+            x1 = x2;
+            f1 = f2;
+            x2 = lo + ratio * (hi - lo);
+            f2 = f(x2);
+        } else {
+            hi = x2;
+            x2 = x1;
+            f2 = f1;
+            x1 = hi - ratio * (hi - lo);
+            f1 = f(x1);
+        }
+    }
+    f1.max(f2).max(0.0).sqrt()
 }

@@ -7,9 +7,13 @@
 //! time.
 //!
 //! Wall contacts treat the particle through its bounding sphere, which is exact for spheres.
-//! Distance functions follow paper 001, Eq. 23 (plane) and its cylinder analogue.
+//! Distance functions follow paper 001, Eq. 23 (plane) and its cylinder analogue. A container
+//! whose walls are all planes ([`Boundary::PLANAR_WALLS`]) lets a shape that knows its own
+//! plane contacts ([`Collidable::SHAPED_PLANE_CONTACT`], e.g. the ellipsoid) predict them
+//! itself ([`Boundary::predict_shaped_wall`]); other containers keep the bounding sphere,
+//! which is conservative for any shape.
 
-use crate::shape::{exit_ball_time, Vec3};
+use crate::shape::{exit_ball_time, Collidable, Vec3};
 use rand::Rng;
 
 /// Index of a wall of a container (box faces `2·axis + side`, cylinder mantle and caps).
@@ -24,6 +28,9 @@ pub type WallId = u8;
 pub trait Boundary: Clone + Send + Sync + 'static {
     /// Whether the container has any wall (`false` removes wall events from the hot loop).
     const HAS_WALLS: bool;
+    /// Whether every wall is a plane, so that [`Boundary::predict_shaped_wall`] asks the shape
+    /// itself and the wall response may use the shape's own contact point.
+    const PLANAR_WALLS: bool = false;
     /// Lower corner of the axis-aligned bounding box of the container.
     fn min(&self) -> Vec3;
     /// Upper corner of the axis-aligned bounding box of the container.
@@ -46,6 +53,27 @@ pub trait Boundary: Clone + Send + Sync + 'static {
         g: f64,
         max_tau: f64,
     ) -> Option<(f64, WallId)>;
+    /// First contact of a particle of shape `S` (centre `p`, velocity `v`, rotational state
+    /// `spin`, all at kernel time `t`) with a wall, within `[0, max_tau]`, asking the shape
+    /// for each plane. Used only when both [`Boundary::PLANAR_WALLS`] and
+    /// [`Collidable::SHAPED_PLANE_CONTACT`] hold; the default is the bounding sphere.
+    fn predict_shaped_wall<S: Collidable>(
+        &self,
+        p: &Vec3,
+        v: &Vec3,
+        shape: &S,
+        _spin: &S::Spin,
+        t: f64,
+        max_tau: f64,
+    ) -> Option<(f64, WallId)> {
+        self.predict_wall(
+            p,
+            v,
+            shape.bounding_radius(t),
+            shape.bounding_growth_rate(),
+            max_tau,
+        )
+    }
     /// Unit normal of `wall` pointing into the container, at the contact of a sphere
     /// centred at `p`.
     fn wall_normal(&self, wall: WallId, p: &Vec3) -> Vec3;
@@ -182,6 +210,7 @@ pub struct WalledBox {
 
 impl Boundary for WalledBox {
     const HAS_WALLS: bool = true;
+    const PLANAR_WALLS: bool = true;
 
     fn min(&self) -> Vec3 {
         self.min
@@ -229,6 +258,37 @@ impl Boundary for WalledBox {
             // Gap p − min − r closes at g − v; gap max − p − r at v + g.
             first.plane(p[k] - self.min[k] - r, g - v[k], 2 * k as u8);
             first.plane(self.max[k] - p[k] - r, v[k] + g, 2 * k as u8 + 1);
+        }
+        first.best
+    }
+    #[inline]
+    fn predict_shaped_wall<S: Collidable>(
+        &self,
+        p: &Vec3,
+        v: &Vec3,
+        shape: &S,
+        spin: &S::Spin,
+        t: f64,
+        max_tau: f64,
+    ) -> Option<(f64, WallId)> {
+        let mut first = FirstContact::within(max_tau);
+        for k in 0..3 {
+            if self.periodic[k] {
+                continue;
+            }
+            for (wall, distance, sign) in [
+                (2 * k as u8, p[k] - self.min[k], 1.0),
+                (2 * k as u8 + 1, self.max[k] - p[k], -1.0),
+            ] {
+                let mut n = Vec3::zeros();
+                n[k] = sign;
+                let window = first.best.map_or(max_tau, |(tau, _)| tau);
+                if let Some(tau) =
+                    shape.predict_plane_contact(spin, &n, distance, sign * v[k], t, window)
+                {
+                    first.offer(tau, wall);
+                }
+            }
         }
         first.best
     }

@@ -62,6 +62,17 @@ pub enum ParticleRecord {
         /// Half axis: from the centre to the centre of one end disk.
         half_axis: [f64; 3],
     },
+    /// An ellipsoid: `{"type": "ellipsoid", "center": [..], "semi_axes": [a, b, c],
+    /// "orientation": [w, x, y, z]}`.
+    Ellipsoid {
+        /// Centre.
+        center: [f64; 3],
+        /// Semi-axes along the body x, y, z axes.
+        semi_axes: [f64; 3],
+        /// Unit quaternion `[w, x, y, z]` rotating the body frame (whose axes carry the
+        /// semi-axes) into the world frame.
+        orientation: [f64; 4],
+    },
 }
 
 /// Run statistics stored with a packing.

@@ -48,13 +48,27 @@
 //! `method = "rsa"` packs by random sequential addition alone (no stages), keeping
 //! `particles.gap` between spheres and half of it to walls.
 //!
+//! Ellipsoids (paper 004) replace the spheres when `[particles.ellipsoid]` is present; the
+//! diameters are then volume-equivalent sphere diameters:
+//!
+//! ```toml
+//! [particles]
+//! count = 100
+//! diameter = 1.0                # volume-equivalent: a·b·c = (d/2)³
+//! packing_fraction = 0.05       # seeding fraction (RSA on bounding spheres)
+//! [particles.ellipsoid]
+//! aspect_ratios = [2.0, 2.0]    # R1 = a/b, R2 = a/c: prolate R1 = R2, oblate R2 = 1
+//! # aspect_ratio_ranges = [[1.0, 5.0], [1.0, 5.0]]   # or drawn uniformly per particle
+//! predictor = "separating_axis" # or "characteristic" (paper's η1 roots, Brent)
+//! ```
+//!
 //! Every table rejects unknown keys; [`Scene::validate`] names the offending field and its
 //! allowed range.
 
 use crate::kernel::{KernelConfig, Limits, Stage, Until};
 use crate::protocol::take_phase::{GradingSpec, TakeError, TakeParams, TakePhase};
 use crate::queue::QueueKind;
-use crate::shape::{Growth, MassRule};
+use crate::shape::{Growth, MassRule, Predictor};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 
@@ -187,6 +201,91 @@ pub struct ParticlesSpec {
     /// Consecutive RSA rejections of one sphere before seeding fails (default 10⁶).
     #[serde(default = "default_rsa_failures")]
     pub rsa_max_failures: u64,
+    /// Ellipsoids instead of spheres (the diameters are volume-equivalent).
+    #[serde(default)]
+    pub ellipsoid: Option<EllipsoidSpec>,
+}
+
+/// Ellipsoid shapes of a scene (paper 004): semi-axes `a`, `b = a/R1`, `c = a/R2` along the
+/// body x, y, z axes, scaled so that `a·b·c = (d/2)³` for the particle's diameter `d`.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct EllipsoidSpec {
+    /// `[R1, R2]` for every particle.
+    pub aspect_ratios: Option<[f64; 2]>,
+    /// `[[R1_min, R1_max], [R2_min, R2_max]]`: each particle draws R1 and R2 uniformly
+    /// (paper 004, Fig. 5).
+    pub aspect_ratio_ranges: Option<[[f64; 2]; 2]>,
+    /// Collision predictor (default `"separating_axis"`).
+    #[serde(default)]
+    pub predictor: Predictor,
+}
+
+/// Largest ellipsoid packing fraction known (Donev et al. 2004, crystal of ellipsoids,
+/// 0.7707): no ellipsoid scene can grow past it.
+pub const ELLIPSOID_MAX_FRACTION: f64 = 0.7707;
+
+impl EllipsoidSpec {
+    /// Semi-axes `[a, b, c]` for volume-equivalent diameter `d` and aspect ratios `R1`, `R2`.
+    pub fn semi_axes(d: f64, r1: f64, r2: f64) -> [f64; 3] {
+        let a = 0.5 * d * (r1 * r2).cbrt();
+        [a, a / r1, a / r2]
+    }
+
+    /// The largest ratio of bounding radius to volume-equivalent radius over the allowed
+    /// aspect ratios (the function is monotone between the corners and the lines R = 1).
+    pub fn max_bounding_ratio(&self) -> f64 {
+        let ranges = match (self.aspect_ratios, self.aspect_ratio_ranges) {
+            (Some([r1, r2]), _) => [[r1, r1], [r2, r2]],
+            (None, Some(r)) => r,
+            (None, None) => return 1.0,
+        };
+        let candidates = |[lo, hi]: [f64; 2]| {
+            let mut v = vec![lo, hi];
+            if lo < 1.0 && hi > 1.0 {
+                v.push(1.0);
+            }
+            v
+        };
+        let mut best = 0.0_f64;
+        for &r1 in &candidates(ranges[0]) {
+            for &r2 in &candidates(ranges[1]) {
+                let [a, b, c] = Self::semi_axes(2.0, r1, r2);
+                best = best.max(a.max(b).max(c));
+            }
+        }
+        best
+    }
+
+    fn validate(&self) -> Result<(), SceneError> {
+        let field = "particles.ellipsoid";
+        match (self.aspect_ratios, self.aspect_ratio_ranges) {
+            (Some(r), None) => {
+                for (k, x) in r.iter().enumerate() {
+                    positive(&format!("{field}.aspect_ratios[{k}]"), *x)?;
+                }
+            }
+            (None, Some(ranges)) => {
+                for (k, [lo, hi]) in ranges.iter().enumerate() {
+                    positive(&format!("{field}.aspect_ratio_ranges[{k}][0]"), *lo)?;
+                    positive(&format!("{field}.aspect_ratio_ranges[{k}][1]"), *hi)?;
+                    if hi < lo {
+                        return Err(invalid(
+                            format!("{field}.aspect_ratio_ranges[{k}]"),
+                            format!("[{lo}, {hi}]: the upper bound must be ≥ the lower"),
+                        ));
+                    }
+                }
+            }
+            _ => {
+                return Err(invalid(
+                    field,
+                    "give exactly one of `aspect_ratios` and `aspect_ratio_ranges`",
+                ))
+            }
+        }
+        Ok(())
+    }
 }
 
 fn default_rsa_failures() -> u64 {
@@ -540,6 +639,18 @@ impl Scene {
             }
         }
         let final_diameter = self.validate_stages(&sizes, scale, container)?;
+        if let Some(e) = &self.particles.ellipsoid {
+            let grows = self.stages.iter().any(|s| s.growth != GrowthKind::None);
+            let seeded_phi = sizes.volume * scale.powi(3) / container;
+            self.validate_ellipsoids(
+                e,
+                d_seed,
+                smallest_extent,
+                periodic_extent,
+                seeded_phi,
+                grows,
+            )?;
+        }
         // Minimum image needs every contact distance below half the periodic box length.
         if periodic_extent.is_finite()
             && 2.0 * final_diameter.max(d_seed + rsa_gap) >= periodic_extent
@@ -876,6 +987,79 @@ struct NominalSizes {
     d_min: f64,
     d_max: f64,
     volume: f64,
+}
+
+impl Scene {
+    /// Ellipsoid-specific checks: a box container, and bounding spheres (the largest
+    /// semi-axis) that fit the box and stay below half a periodic edge up to the densest
+    /// fraction the stages can reach (minimum image).
+    fn validate_ellipsoids(
+        &self,
+        e: &EllipsoidSpec,
+        d_max: f64,
+        smallest_extent: f64,
+        periodic_extent: f64,
+        seeded_phi: f64,
+        grows: bool,
+    ) -> Result<(), SceneError> {
+        e.validate()?;
+        if self.method == Method::Rsa {
+            return Err(invalid(
+                "method",
+                "ellipsoids are packed by EDMD only (\"edmd\")",
+            ));
+        }
+        if self.particles.grading.is_some() {
+            return Err(invalid(
+                "particles.grading",
+                "grading curves are for spheres; give ellipsoids `count`/`diameter` or `components`",
+            ));
+        }
+        if let Some(k) = self.gap_stage() {
+            return Err(invalid(
+                format!("stage[{k}].until"),
+                "gap and max_gap goals are for spheres, not ellipsoids",
+            ));
+        }
+        if !matches!(self.container, ContainerSpec::Box { .. }) {
+            return Err(invalid(
+                "container.type",
+                "ellipsoids need a \"box\" container (periodic or walled)",
+            ));
+        }
+        let bounding = d_max * e.max_bounding_ratio();
+        if bounding >= smallest_extent {
+            return Err(invalid(
+                "particles",
+                format!(
+                    "the largest ellipsoid (bounding diameter {bounding:.4}) does not fit the \
+                     container (smallest extent {smallest_extent})"
+                ),
+            ));
+        }
+        let mut final_phi = seeded_phi;
+        if grows {
+            for s in &self.stages {
+                if s.growth != GrowthKind::None {
+                    final_phi =
+                        final_phi.max(s.until.packing_fraction.unwrap_or(ELLIPSOID_MAX_FRACTION));
+                }
+            }
+        }
+        let bounding_final = bounding * (final_phi / seeded_phi).cbrt();
+        if periodic_extent.is_finite() && 2.0 * bounding_final >= periodic_extent {
+            return Err(invalid(
+                "container.size",
+                format!(
+                    "a periodic box edge must exceed twice the largest bounding diameter the \
+                     ellipsoids can reach ({bounding_final:.4}) for the minimum-image \
+                     convention; give at least {:.4} or use more, smaller particles",
+                    2.0 * bounding_final
+                ),
+            ));
+        }
+        Ok(())
+    }
 }
 
 impl StageSpec {

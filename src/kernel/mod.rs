@@ -19,6 +19,10 @@
 //!    *cell transfer* of the cell method) and predicts against the new neighbours: its
 //!    trajectory did not change, so events of others that name it stay valid.
 //!
+//! Shapes that rotate carry their orientation and angular velocity in the delayed state too
+//! ([`Collidable::Spin`]); the kernel advances it with the centre and hands it to the shape's
+//! predictions and impulses without knowing what it is (`()` for spheres).
+//!
 //! # Neighbour lists
 //! Each particle `i` owns a neighbour-list sphere: centre `c_i` (its position when the list
 //! was built) and radius `R_i = r_i + skin·min(r_i, r̄)` (`r̄` the mean radius), and stays
@@ -58,14 +62,14 @@ pub use stage::{Limits, Progress, Stage, StageReport, StopReason, Until};
 
 use crate::boundary::{Boundary, WallId};
 use crate::queue::EventQueue;
-use crate::shape::{exit_ball_time, Collidable, MassRule, Vec3};
+use crate::shape::{bounding_sphere_wall_impulse, exit_ball_time, Collidable, MassRule, Vec3};
 use crate::spatial::{CellGrid, MAX_LEVELS};
 use rand::Rng;
 use rand_distr::StandardNormal;
 
-/// A particle in delayed state: centre and velocity valid at `time`.
+/// A particle in delayed state: centre, velocity and rotational state valid at `time`.
 #[derive(Clone, Debug)]
-pub struct Particle<S> {
+pub struct Particle<S: Collidable> {
     /// Centre at `time`.
     pub pos: Vec3,
     /// Velocity (constant between events).
@@ -74,13 +78,21 @@ pub struct Particle<S> {
     pub time: f64,
     /// Shape and growth.
     pub shape: S,
+    /// Orientation at `time` and angular velocity (zero-sized for spheres).
+    pub spin: S::Spin,
 }
 
-impl<S> Particle<S> {
+impl<S: Collidable> Particle<S> {
     /// Centre at kernel time `t`.
     #[inline]
     pub fn position_at(&self, t: f64) -> Vec3 {
         self.pos + self.vel * (t - self.time)
+    }
+
+    /// Rotational state at kernel time `t`.
+    #[inline]
+    pub fn spin_at(&self, t: f64) -> S::Spin {
+        S::spin_after(&self.spin, t - self.time)
     }
 }
 
@@ -212,6 +224,7 @@ pub struct Edmd<S: Collidable, B: Boundary, Q: EventQueue> {
 impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// A kernel for particles with the given centres and shapes at kernel time 0, with
     /// Maxwell–Boltzmann velocities of temperature `config.temperature` and zero total momentum.
+    /// Rotating shapes start in their default orientation ([`Edmd::with_spins`] sets them).
     ///
     /// The caller guarantees that the particles do not overlap and lie inside the container.
     pub fn new<R: Rng>(
@@ -221,7 +234,22 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         config: KernelConfig,
         rng: &mut R,
     ) -> Self {
+        let spins = vec![S::Spin::default(); centres.len()];
+        Self::with_spins(centres, shapes, spins, boundary, config, rng)
+    }
+
+    /// Like [`Edmd::new`], with the initial rotational states (orientations) of the particles;
+    /// angular velocities are drawn at the temperature after the linear ones.
+    pub fn with_spins<R: Rng>(
+        centres: Vec<Vec3>,
+        shapes: Vec<S>,
+        spins: Vec<S::Spin>,
+        boundary: B,
+        config: KernelConfig,
+        rng: &mut R,
+    ) -> Self {
         assert_eq!(centres.len(), shapes.len(), "one shape per centre");
+        assert_eq!(centres.len(), spins.len(), "one spin per centre");
         let n = centres.len();
         let reference_volume = if n == 0 {
             1.0
@@ -231,13 +259,15 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let mut particles: Vec<Particle<S>> = centres
             .into_iter()
             .zip(shapes)
-            .map(|(mut pos, shape)| {
+            .zip(spins)
+            .map(|((mut pos, shape), spin)| {
                 boundary.wrap(&mut pos);
                 Particle {
                     pos,
                     vel: Vec3::zeros(),
                     time: 0.0,
                     shape,
+                    spin,
                 }
             })
             .collect();
@@ -259,6 +289,13 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             let drift = momentum / total_mass;
             for p in &mut particles {
                 p.vel -= drift;
+            }
+        }
+        if S::ROTATES {
+            for (p, m) in particles.iter_mut().zip(&masses) {
+                p.spin = p
+                    .shape
+                    .thermal_spin(&p.spin, *m, config.temperature, 0.0, rng);
             }
         }
         let grid = CellGrid::new(boundary.min(), boundary.max(), boundary.periodic(), 1.0, 0);
@@ -400,6 +437,18 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             .sum()
     }
 
+    /// Twice the rotational kinetic energy, `Σ ωᵀIω` (zero for shapes that do not rotate).
+    pub fn rotational_kinetic_twice(&self) -> f64 {
+        let t = self.time;
+        self.particles
+            .iter()
+            .map(|p| {
+                p.shape
+                    .rotational_kinetic_twice(&p.spin_at(t), self.mass(p, t), t)
+            })
+            .sum()
+    }
+
     #[inline]
     fn mass(&self, p: &Particle<S>, t: f64) -> f64 {
         mass_of(self.config.mass, &p.shape, t, self.reference_volume)
@@ -438,6 +487,16 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             let factor = (self.config.temperature * dof / k2).sqrt();
             for p in &mut self.particles {
                 p.vel *= factor;
+            }
+        }
+        if S::ROTATES {
+            // Rotation has its own three degrees of freedom per particle.
+            let k2 = self.rotational_kinetic_twice();
+            if k2 > 0.0 {
+                let factor = (self.config.temperature * dof / k2).sqrt();
+                for p in &mut self.particles {
+                    S::scale_angular_velocity(&mut p.spin, factor);
+                }
             }
         }
     }
@@ -573,6 +632,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     fn synchronise_and_rebase(&mut self, t: f64) {
         for p in &mut self.particles {
             p.pos += p.vel * (t - p.time);
+            p.spin = S::spin_after(&p.spin, t - p.time);
             self.boundary.wrap(&mut p.pos);
             p.time = 0.0;
             p.shape.rebase(t);
@@ -617,6 +677,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let max_tau = self.barrier_time - t;
         let pi = &self.particles[i];
         let pos_i = pi.position_at(t);
+        let spin_i = pi.spin_at(t);
         let list = &mut self.local[i];
         {
             for j in self.neighbours[i].iter().map(|&j| j as usize) {
@@ -632,8 +693,10 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 let mut dr = pos_i - pj.position_at(t);
                 self.boundary.minimum_image(&mut dr);
                 let dv = pi.vel - pj.vel;
-                if let Some(tau) = S::predict_collision(&pi.shape, &pj.shape, &dr, &dv, t, max_tau)
-                {
+                let spin_j = pj.spin_at(t);
+                if let Some(tau) = S::predict_collision(
+                    &pi.shape, &pj.shape, &spin_i, &spin_j, &dr, &dv, t, max_tau,
+                ) {
                     list.push(LocalEvent::new(
                         t + tau,
                         EventKind::Collision {
@@ -654,9 +717,16 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let p = &self.particles[i];
         let pos = p.position_at(t);
         if B::HAS_WALLS {
-            let r = p.shape.bounding_radius(t);
-            let g = p.shape.bounding_growth_rate();
-            if let Some((tau, wall)) = self.boundary.predict_wall(&pos, &p.vel, r, g, max_tau) {
+            let contact = if S::SHAPED_PLANE_CONTACT && B::PLANAR_WALLS {
+                let spin = p.spin_at(t);
+                self.boundary
+                    .predict_shaped_wall(&pos, &p.vel, &p.shape, &spin, t, max_tau)
+            } else {
+                let r = p.shape.bounding_radius(t);
+                let g = p.shape.bounding_growth_rate();
+                self.boundary.predict_wall(&pos, &p.vel, r, g, max_tau)
+            };
+            if let Some((tau, wall)) = contact {
                 self.local[i].push(LocalEvent::new(t + tau, EventKind::Wall(wall)));
             }
         }
@@ -690,6 +760,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     fn advance(&mut self, i: usize, t: f64) {
         let p = &mut self.particles[i];
         p.pos += p.vel * (t - p.time);
+        p.spin = S::spin_after(&p.spin, t - p.time);
         p.time = t;
     }
 
@@ -740,10 +811,23 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.boundary.minimum_image(&mut dr);
         let dv = pi.vel - pj.vel;
         let (mi, mj) = (self.mass(pi, t), self.mass(pj, t));
-        let impulse = S::collision_impulse(&pi.shape, &pj.shape, &dr, &dv, t, mi, mj);
+        let (mut spin_i, mut spin_j) = (pi.spin, pj.spin);
+        let impulse = S::collision_impulse(
+            &pi.shape,
+            &pj.shape,
+            &mut spin_i,
+            &mut spin_j,
+            &dr,
+            &dv,
+            t,
+            mi,
+            mj,
+        );
         self.virial += impulse.dot(&dr);
         self.particles[i].vel += impulse / mi;
         self.particles[j].vel -= impulse / mj;
+        self.particles[i].spin = spin_i;
+        self.particles[j].spin = spin_j;
         self.counts[i] = self.counts[i].wrapping_add(1);
         self.counts[j] = self.counts[j].wrapping_add(1);
         self.local[i].clear();
@@ -762,13 +846,16 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.advance(i, t);
         let p = &self.particles[i];
         let n = self.boundary.wall_normal(wall, &p.pos);
-        let g = p.shape.bounding_growth_rate();
-        let u = p.vel.dot(&n);
-        // Reflect the gap velocity u − g (Eq. 24 for g = 0); never leave it closing.
-        let u_after = (2.0 * g - u).max(g);
         let m = self.mass(p, t);
-        self.virial += m * (u_after - u) * p.shape.bounding_radius(t);
-        self.particles[i].vel += n * (u_after - u);
+        let mut spin = p.spin;
+        let (dv, virial) = if S::SHAPED_PLANE_CONTACT && B::PLANAR_WALLS {
+            p.shape.plane_impulse(&mut spin, &n, &p.vel, t, m)
+        } else {
+            bounding_sphere_wall_impulse(&p.shape, &n, &p.vel, t, m)
+        };
+        self.virial += virial;
+        self.particles[i].vel += dv;
+        self.particles[i].spin = spin;
         self.counts[i] = self.counts[i].wrapping_add(1);
         self.local[i].clear();
         self.predict_pairs(i, Partners::All);

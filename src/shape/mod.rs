@@ -10,8 +10,14 @@
 //! time barrier). At every barrier the kernel calls [`Collidable::rebase`] so that the stored
 //! size refers to the new origin and `t` stays small (precision does not decay in long runs).
 
+mod ellipsoid;
+pub mod quartic;
 mod sphere;
 
+pub use ellipsoid::{
+    contact_point_and_normal, ellipsoid_pair_impulse, predict_ellipsoid_pair, prediction_failures,
+    support_curvature_bound, Ellipsoid, Predictor, Spin, CONTACT_TOLERANCE, MAX_STEPS,
+};
 pub use sphere::{predict_sphere_sphere, Sphere};
 
 /// Three-vector of `f64`, the only vector type of the kernel.
@@ -48,7 +54,27 @@ pub enum Growth {
 /// the true first contact (it may report an earlier one only if the pair is then resolved
 /// with zero impulse, which the sphere never needs); predictions are symmetric under swapping
 /// the two particles with `dr → −dr`, `dv → −dv`.
+///
+/// # Rotation
+/// A shape whose orientation matters carries a [`Collidable::Spin`]: its orientation at the
+/// particle's update time and its angular velocity, advanced with the delayed state
+/// ([`Collidable::spin_after`]), handed to the predictions at the prediction time and changed
+/// by the collision impulse. Shapes without orientation (the sphere) use `()` and keep the
+/// default methods: after monomorphisation a sphere kernel stores and computes nothing for
+/// rotation, and its trajectories are bit-identical to a kernel without the notion.
 pub trait Collidable: Clone + Send + Sync + 'static {
+    /// Rotational state: orientation (at the particle's update time) and angular velocity.
+    /// `()` for shapes without orientation.
+    type Spin: Copy + Default + std::fmt::Debug + Send + Sync + 'static;
+    /// Whether the shape has rotational kinetic energy (3 more degrees of freedom per
+    /// particle for the thermostat and the energy).
+    const ROTATES: bool = false;
+    /// Whether the shape predicts and resolves its own contacts with flat walls
+    /// ([`Collidable::predict_plane_contact`], [`Collidable::plane_impulse`]). Otherwise the
+    /// container treats it through its bounding sphere (exact for spheres, conservative for
+    /// other shapes).
+    const SHAPED_PLANE_CONTACT: bool = false;
+
     /// Radius of a sphere around the centre that contains the particle at time `t`.
     fn bounding_radius(&self, t: f64) -> f64;
     /// Rate of change of [`Collidable::bounding_radius`] (length/time).
@@ -62,29 +88,119 @@ pub trait Collidable: Clone + Send + Sync + 'static {
     /// Multiplies the size at time `t` by `factor` and keeps the growth rate relative to it
     /// (used to scale a seeding to a requested packing fraction).
     fn scale(&mut self, factor: f64);
+
+    /// The rotational state `dt` later (free flight: constant angular velocity).
+    #[inline]
+    fn spin_after(spin: &Self::Spin, _dt: f64) -> Self::Spin {
+        *spin
+    }
+    /// Random angular velocity of temperature `kt` for a particle of mass `mass` at time `t`,
+    /// keeping the orientation of `spin`.
+    #[inline]
+    fn thermal_spin<R: rand::Rng>(
+        &self,
+        spin: &Self::Spin,
+        _mass: f64,
+        _kt: f64,
+        _t: f64,
+        _rng: &mut R,
+    ) -> Self::Spin {
+        *spin
+    }
+    /// Twice the rotational kinetic energy `ωᵀIω` at time `t` for mass `mass`.
+    #[inline]
+    fn rotational_kinetic_twice(&self, _spin: &Self::Spin, _mass: f64, _t: f64) -> f64 {
+        0.0
+    }
+    /// Multiplies the angular velocity by `factor` (thermostat).
+    #[inline]
+    fn scale_angular_velocity(_spin: &mut Self::Spin, _factor: f64) {}
+
     /// First contact time `τ ∈ [0, max_tau]` after time `t` of particles `a` and `b`, whose
     /// centres are at relative position `dr = c_a − c_b` (minimum image) and relative velocity
-    /// `dv = v_a − v_b` at time `t`. `None` if they do not touch within the window.
+    /// `dv = v_a − v_b` at time `t`, with rotational states `sa`, `sb` at time `t`. `None` if
+    /// they do not touch within the window.
+    #[allow(clippy::too_many_arguments)]
     fn predict_collision(
         a: &Self,
         b: &Self,
+        sa: &Self::Spin,
+        sb: &Self::Spin,
         dr: &Vec3,
         dv: &Vec3,
         t: f64,
         max_tau: f64,
     ) -> Option<f64>;
-    /// Resolves a contact at time `t`: returns the impulse on `a` (the impulse on `b` is its
-    /// negative) for masses `ma`, `mb`. Elastic in the frame of the growing surfaces: the
-    /// normal gap velocity is reflected, so the pair always separates.
+    /// Resolves a contact at time `t`: returns the linear impulse on `a` (the impulse on `b`
+    /// is its negative) for masses `ma`, `mb`, and applies the angular part to `sa`, `sb`.
+    /// Elastic in the frame of the growing surfaces: the normal gap velocity is reflected, so
+    /// the pair always separates.
+    #[allow(clippy::too_many_arguments)]
     fn collision_impulse(
         a: &Self,
         b: &Self,
+        sa: &mut Self::Spin,
+        sb: &mut Self::Spin,
         dr: &Vec3,
         dv: &Vec3,
         t: f64,
         ma: f64,
         mb: f64,
     ) -> Vec3;
+
+    /// First time `τ ∈ [0, max_tau]` after `t` at which the particle touches the plane with
+    /// unit normal `n` (pointing from the plane into the container) at signed distance
+    /// `distance` from its centre, approached by the centre at normal velocity `n·v`
+    /// (`normal_velocity`). Default: the bounding sphere.
+    #[inline]
+    fn predict_plane_contact(
+        &self,
+        _spin: &Self::Spin,
+        _n: &Vec3,
+        distance: f64,
+        normal_velocity: f64,
+        t: f64,
+        max_tau: f64,
+    ) -> Option<f64> {
+        let rate = self.bounding_growth_rate() - normal_velocity;
+        let tau = ((distance - self.bounding_radius(t)) / rate).max(0.0);
+        (rate > 0.0 && tau <= max_tau).then_some(tau)
+    }
+    /// Resolves a contact with a plane of unit normal `n` (into the container) at time `t`:
+    /// returns the velocity change of the centre and the virial `J·ℓ` (impulse times the
+    /// distance from the centre to the plane), and applies the angular part to `spin`.
+    /// Default: the bounding sphere.
+    #[inline]
+    fn plane_impulse(
+        &self,
+        _spin: &mut Self::Spin,
+        n: &Vec3,
+        vel: &Vec3,
+        t: f64,
+        mass: f64,
+    ) -> (Vec3, f64) {
+        bounding_sphere_wall_impulse(self, n, vel, t, mass)
+    }
+}
+
+/// Wall response of a particle through its bounding sphere (paper 001, Eq. 24 for a sphere
+/// that does not grow): the gap velocity `n·v − g` is reflected, and never left closing.
+/// Returns the velocity change and the virial `J·r`.
+#[inline]
+pub fn bounding_sphere_wall_impulse<S: Collidable>(
+    shape: &S,
+    n: &Vec3,
+    vel: &Vec3,
+    t: f64,
+    mass: f64,
+) -> (Vec3, f64) {
+    let g = shape.bounding_growth_rate();
+    let u = vel.dot(n);
+    let u_after = (2.0 * g - u).max(g);
+    (
+        n * (u_after - u),
+        mass * (u_after - u) * shape.bounding_radius(t),
+    )
 }
 
 /// First time `τ ≥ 0` at which a gap-like quadratic `f(τ) = a τ² + 2 b τ + c` reaches zero

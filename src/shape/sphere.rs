@@ -64,6 +64,8 @@ pub fn predict_sphere_sphere(
 }
 
 impl Collidable for Sphere {
+    type Spin = ();
+
     #[inline]
     fn bounding_radius(&self, t: f64) -> f64 {
         self.radius(t)
@@ -104,6 +106,8 @@ impl Collidable for Sphere {
     fn predict_collision(
         a: &Self,
         b: &Self,
+        _: &(),
+        _: &(),
         dr: &Vec3,
         dv: &Vec3,
         t: f64,
@@ -116,6 +120,8 @@ impl Collidable for Sphere {
     fn collision_impulse(
         a: &Self,
         b: &Self,
+        _: &mut (),
+        _: &mut (),
         dr: &Vec3,
         dv: &Vec3,
         t: f64,
@@ -145,7 +151,7 @@ mod tests {
         let a = Sphere::new(1.0);
         let dr = Vec3::new(3.0, 0.0, 0.0);
         let dv = Vec3::new(-2.0, 0.0, 0.0);
-        let tau = Sphere::predict_collision(&a, &a, &dr, &dv, 0.0, 10.0).unwrap();
+        let tau = Sphere::predict_collision(&a, &a, &(), &(), &dr, &dv, 0.0, 10.0).unwrap();
         assert!((tau - 0.5).abs() < 1e-15);
     }
 
@@ -153,7 +159,8 @@ mod tests {
     fn growing_resting_spheres_meet_when_radii_fill_gap() {
         let a = Sphere { r0: 1.0, g: 0.25 };
         let dr = Vec3::new(0.0, 3.0, 0.0);
-        let tau = Sphere::predict_collision(&a, &a, &dr, &Vec3::zeros(), 0.0, 10.0).unwrap();
+        let tau =
+            Sphere::predict_collision(&a, &a, &(), &(), &dr, &Vec3::zeros(), 0.0, 10.0).unwrap();
         assert!((tau - 2.0).abs() < 1e-14, "{tau}");
     }
 
@@ -162,7 +169,7 @@ mod tests {
         let a = Sphere::new(0.5);
         let dr = Vec3::new(1.0, 0.0, 0.0);
         let dv = Vec3::new(-1.0, 0.3, 0.0);
-        let j = Sphere::collision_impulse(&a, &a, &dr, &dv, 0.0, 1.0, 1.0);
+        let j = Sphere::collision_impulse(&a, &a, &mut (), &mut (), &dr, &dv, 0.0, 1.0, 1.0);
         // Eq. 29: with equal masses the normal components swap, J = m·|u| along n.
         assert!((j - Vec3::new(1.0, 0.0, 0.0)).norm() < 1e-15);
     }

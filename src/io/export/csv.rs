@@ -1,8 +1,10 @@
 //! CSV table of particles: a header line, then one row per particle in packing order,
 //! floats in shortest round-trip form.
 //!
-//! Columns for sphere packings: `x,y,z,r` (centre and radius). Packings with cylinders get
-//! `type,x,y,z,r,lx,ly,lz` (the half-axis vector `l`; zero for spheres).
+//! Columns for sphere packings: `x,y,z,r` (centre and radius). Packings with other shapes
+//! get `type,x,y,z,r,lx,ly,lz,a,b,c,qw,qx,qy,qz`: the radius and half-axis vector `l` of
+//! cylinders (`r` alone for spheres), the semi-axes and orientation quaternion of
+//! ellipsoids; unused columns are empty.
 
 use super::ExportError;
 use crate::io::packing::{Packing, ParticleRecord};
@@ -10,8 +12,8 @@ use std::io::Write;
 
 /// The header of a sphere packing's table.
 const SPHERE_HEADER: &str = "x,y,z,r";
-/// The header of a table with cylinders.
-const MIXED_HEADER: &str = "type,x,y,z,r,lx,ly,lz";
+/// The header of a table with other shapes.
+const MIXED_HEADER: &str = "type,x,y,z,r,lx,ly,lz,a,b,c,qw,qx,qy,qz";
 
 /// One row for a particle: the sphere columns, or the mixed ones when `mixed`.
 fn row(p: &ParticleRecord, mixed: bool) -> String {
@@ -20,7 +22,7 @@ fn row(p: &ParticleRecord, mixed: bool) -> String {
             format!("{},{},{},{}", center[0], center[1], center[2], radius)
         }
         ParticleRecord::Sphere { center, radius } => format!(
-            "sphere,{},{},{},{},0,0,0",
+            "sphere,{},{},{},{},,,,,,,,,,",
             center[0], center[1], center[2], radius
         ),
         ParticleRecord::Cylinder {
@@ -28,8 +30,16 @@ fn row(p: &ParticleRecord, mixed: bool) -> String {
             radius,
             half_axis: l,
         } => format!(
-            "cylinder,{},{},{},{},{},{},{}",
+            "cylinder,{},{},{},{},{},{},{},,,,,,,",
             center[0], center[1], center[2], radius, l[0], l[1], l[2]
+        ),
+        ParticleRecord::Ellipsoid {
+            center,
+            semi_axes: a,
+            orientation: q,
+        } => format!(
+            "ellipsoid,{},{},{},,,,,{},{},{},{},{},{},{}",
+            center[0], center[1], center[2], a[0], a[1], a[2], q[0], q[1], q[2], q[3]
         ),
     }
 }

@@ -84,6 +84,27 @@ fn solid_statement(s: &Solid, scale: f64, tag: usize) -> String {
                 radius * scale + s.inflate
             )
         }
+        ParticleRecord::Ellipsoid {
+            center,
+            semi_axes,
+            orientation,
+        } => {
+            // A unit sphere dilated to the semi-axes (a shell adds `inflate` to each: an
+            // ellipsoid, not the exact offset surface) and rotated about its centre.
+            let c: Vec<f64> = (0..3).map(|k| center[k] + s.shift[k]).collect();
+            let a: Vec<f64> = semi_axes.iter().map(|x| x * scale + s.inflate).collect();
+            let mut text = format!(
+                "Sphere({tag}) = {{{}, {}, {}, 1}};\nDilate {{{{{}, {}, {}}}, {{{}, {}, {}}}}} {{ Volume{{{tag}}}; }}",
+                c[0], c[1], c[2], c[0], c[1], c[2], a[0], a[1], a[2]
+            );
+            if let Some((axis, angle)) = super::rotation_of(orientation).axis_angle() {
+                text.push_str(&format!(
+                    "\nRotate {{{{{}, {}, {}}}, {{{}, {}, {}}}, {}}} {{ Volume{{{tag}}}; }}",
+                    axis[0], axis[1], axis[2], c[0], c[1], c[2], angle
+                ));
+            }
+            text
+        }
     }
 }
 
@@ -115,6 +136,15 @@ fn scaled(p: &ParticleRecord, scale: f64) -> ParticleRecord {
             center: *center,
             radius: radius * scale,
             half_axis: half_axis.map(|x| x * scale),
+        },
+        ParticleRecord::Ellipsoid {
+            center,
+            semi_axes,
+            orientation,
+        } => ParticleRecord::Ellipsoid {
+            center: *center,
+            semi_axes: semi_axes.map(|x| x * scale),
+            orientation: *orientation,
         },
     }
 }

@@ -63,7 +63,16 @@ pub fn bounding_sphere(p: &ParticleRecord) -> ([f64; 3], f64) {
             radius,
             half_axis,
         } => (*center, (radius * radius + norm2(half_axis)).sqrt()),
+        ParticleRecord::Ellipsoid {
+            center, semi_axes, ..
+        } => (*center, semi_axes.iter().copied().fold(0.0, f64::max)),
     }
+}
+
+/// The rotation of an ellipsoid record (body frame to world frame).
+pub(crate) fn rotation_of(orientation: &[f64; 4]) -> nalgebra::UnitQuaternion<f64> {
+    let [w, x, y, z] = *orientation;
+    nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z))
 }
 
 fn norm2(v: &[f64; 3]) -> f64 {
@@ -90,6 +99,19 @@ pub fn contains(p: &ParticleRecord, x: [f64; 3]) -> bool {
             let radial2 = d.iter().map(|v| v * v).sum::<f64>() - t * t;
             t.abs() <= length && radial2 <= radius * radius
         }
+        ParticleRecord::Ellipsoid {
+            center,
+            semi_axes,
+            orientation,
+        } => {
+            // In the body frame: Σ (x_k / a_k)² ≤ 1.
+            let d = nalgebra::Vector3::new(x[0] - center[0], x[1] - center[1], x[2] - center[2]);
+            let body = rotation_of(orientation).inverse_transform_vector(&d);
+            (0..3)
+                .map(|k| (body[k] / semi_axes[k]).powi(2))
+                .sum::<f64>()
+                <= 1.0
+        }
     }
 }
 
@@ -100,6 +122,9 @@ pub fn particle_volume(p: &ParticleRecord) -> f64 {
         ParticleRecord::Cylinder {
             radius, half_axis, ..
         } => std::f64::consts::PI * radius * radius * 2.0 * norm2(half_axis).sqrt(),
+        ParticleRecord::Ellipsoid { semi_axes: a, .. } => {
+            4.0 / 3.0 * std::f64::consts::PI * a[0] * a[1] * a[2]
+        }
     }
 }
 

@@ -69,6 +69,24 @@ fn attributes(p: &ParticleRecord) -> Attributes {
                 shape: 3,
             }
         }
+        ParticleRecord::Ellipsoid {
+            center,
+            semi_axes: a,
+            orientation,
+        } => {
+            let r = super::rotation_of(orientation).to_rotation_matrix();
+            let tensor = r.matrix()
+                * nalgebra::Matrix3::from_diagonal(&nalgebra::Vector3::new(a[0], a[1], a[2]))
+                * r.matrix().transpose();
+            Attributes {
+                center: *center,
+                radius: a.iter().copied().fold(0.0, f64::max),
+                semi_axes: *a,
+                orientation: *orientation,
+                shape_tensor: std::array::from_fn(|k| tensor[(k / 3, k % 3)]),
+                shape: 2,
+            }
+        }
     }
 }
 

@@ -1,0 +1,233 @@
+//! Running an ellipsoid scene (paper 004): seeding by random sequential addition of the
+//! bounding spheres with uniformly random orientations, the scene's stages, the orientation
+//! tensor, and the independent verification.
+
+use super::{
+    finish, kernel_config, run_stages, Placed, RunError, RunOutcome, RunStats, SceneContainer,
+};
+use crate::boundary::{Boundary, PeriodicBox, WalledBox};
+use crate::io::packing::ParticleRecord;
+use crate::io::scene::{ContainerSpec, EllipsoidSpec, Scene};
+use crate::kernel::{Edmd, Progress, StageReport};
+use crate::protocol::rsa::rsa_spheres;
+use crate::queue::{CalendarQueue, EventQueue, HeapQueue, QueueKind};
+use crate::shape::{prediction_failures, Ellipsoid, Spin, Vec3};
+use nalgebra::{Matrix3, Quaternion, UnitQuaternion};
+use rand::{Rng, SeedableRng};
+use rand_distr::StandardNormal;
+use rand_xoshiro::Xoshiro256PlusPlus;
+
+/// Runs a validated scene whose `[particles.ellipsoid]` is set.
+pub(super) fn run_ellipsoid_scene(
+    scene: &Scene,
+    on_stage: &mut dyn FnMut(usize, &StageReport),
+    on_progress: &mut dyn FnMut(usize, &Progress),
+) -> Result<RunOutcome, RunError> {
+    let ContainerSpec::Box {
+        min,
+        size,
+        periodic,
+    } = &scene.container
+    else {
+        return Err(RunError::Unsupported(
+            "ellipsoids need a box container (container.type = \"box\")".into(),
+        ));
+    };
+    let min = Vec3::from(*min);
+    let len = Vec3::from(*size);
+    if periodic.iter().all(|&p| p) {
+        dispatch_queue(scene, PeriodicBox { min, len }, on_stage, on_progress)
+    } else {
+        let walled = WalledBox {
+            min,
+            max: min + len,
+            periodic: *periodic,
+        };
+        dispatch_queue(scene, walled, on_stage, on_progress)
+    }
+}
+
+fn dispatch_queue<B: Boundary + SceneContainer>(
+    scene: &Scene,
+    boundary: B,
+    on_stage: &mut dyn FnMut(usize, &StageReport),
+    on_progress: &mut dyn FnMut(usize, &Progress),
+) -> Result<RunOutcome, RunError> {
+    match scene.queue {
+        QueueKind::Heap => run_with::<B, HeapQueue>(scene, boundary, on_stage, on_progress),
+        QueueKind::Calendar => run_with::<B, CalendarQueue>(scene, boundary, on_stage, on_progress),
+    }
+}
+
+/// Semi-axes of every particle at seeding: volume-equivalent `diameters`, aspect ratios
+/// fixed or drawn uniformly from their ranges.
+fn semi_axes_of<R: Rng>(diameters: &[f64], spec: &EllipsoidSpec, rng: &mut R) -> Vec<Vec3> {
+    diameters
+        .iter()
+        .map(|&d| {
+            let [r1, r2] = match (spec.aspect_ratios, spec.aspect_ratio_ranges) {
+                (Some(r), _) => r,
+                (None, Some([[a0, a1], [b0, b1]])) => [
+                    a0 + (a1 - a0) * rng.gen::<f64>(),
+                    b0 + (b1 - b0) * rng.gen::<f64>(),
+                ],
+                (None, None) => [1.0, 1.0],
+            };
+            Vec3::from(EllipsoidSpec::semi_axes(d, r1, r2))
+        })
+        .collect()
+}
+
+/// A uniformly distributed rotation (normalised 4-vector of standard normals).
+fn random_orientation<R: Rng>(rng: &mut R) -> UnitQuaternion<f64> {
+    loop {
+        let q = Quaternion::new(
+            rng.sample::<f64, _>(StandardNormal),
+            rng.sample::<f64, _>(StandardNormal),
+            rng.sample::<f64, _>(StandardNormal),
+            rng.sample::<f64, _>(StandardNormal),
+        );
+        if q.norm() > 1e-6 {
+            return UnitQuaternion::from_quaternion(q);
+        }
+    }
+}
+
+fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
+    scene: &Scene,
+    boundary: B,
+    on_stage: &mut dyn FnMut(usize, &StageReport),
+    on_progress: &mut dyn FnMut(usize, &Progress),
+) -> Result<RunOutcome, RunError> {
+    let started = std::time::Instant::now();
+    let spec = scene
+        .particles
+        .ellipsoid
+        .as_ref()
+        .expect("an ellipsoid scene");
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(scene.seed);
+    let true_diameters = scene.true_diameters(&mut rng);
+    let scale = scene.seed_scale(&true_diameters);
+    let seeding: Vec<f64> = true_diameters.iter().map(|d| scale * d).collect();
+    let axes = semi_axes_of(&seeding, spec, &mut rng);
+    let bounding: Vec<f64> = axes.iter().map(|a| a.max()).collect();
+    let centres = rsa_spheres(
+        &boundary,
+        &bounding,
+        0.0,
+        0.0,
+        scene.particles.rsa_max_failures,
+        &mut rng,
+    )?;
+    let seeding_seconds = started.elapsed().as_secs_f64();
+    let spins: Vec<Spin> = (0..axes.len())
+        .map(|_| Spin {
+            orientation: random_orientation(&mut rng),
+            omega: Vec3::zeros(),
+        })
+        .collect();
+    let shapes = axes
+        .iter()
+        .map(|a| Ellipsoid {
+            predictor: spec.predictor,
+            ..Ellipsoid::new(*a)
+        })
+        .collect();
+    // Ellipsoids are volume-equivalent to spheres of the true diameters.
+    let full_size_fraction = true_diameters
+        .iter()
+        .map(|d| std::f64::consts::PI / 6.0 * d * d * d)
+        .sum::<f64>()
+        / boundary.volume();
+    let original = boundary.clone();
+    let failures_before = prediction_failures();
+    let mut kernel: Edmd<Ellipsoid, B, Q> = Edmd::with_spins(
+        centres,
+        shapes,
+        spins,
+        boundary,
+        kernel_config(scene),
+        &mut rng,
+    );
+    let done = run_stages(
+        scene,
+        &mut kernel,
+        full_size_fraction,
+        on_stage,
+        on_progress,
+    )?;
+    // Back to the order of the seeding, which the kernel permutes for cache locality.
+    let mut order: Vec<u32> = vec![0; kernel.particles().len()];
+    for (k, &id) in kernel.original_indices().iter().enumerate() {
+        order[id as usize] = k as u32;
+    }
+    let particles: Vec<ParticleRecord> = order
+        .iter()
+        .map(|&k| {
+            let p = &kernel.particles()[k as usize];
+            let q = p.spin.orientation;
+            ParticleRecord::Ellipsoid {
+                center: p.pos.into(),
+                semi_axes: p.shape.semi_axes(0.0).into(),
+                orientation: [q.w, q.i, q.j, q.k],
+            }
+        })
+        .collect();
+    let volume = kernel.packing_fraction_at(0.0) * original.volume();
+    drop(kernel);
+    let (tensor, ratio) = orientation_tensor(&particles);
+    let mut stats = RunStats::of_stages(&done.reports, particles.len());
+    stats
+        .extra
+        .insert("orientation_tensor".into(), serde_json::json!(tensor));
+    stats.extra.insert(
+        "orientation_eigenvalue_ratio".into(),
+        serde_json::json!(ratio),
+    );
+    stats.extra.insert(
+        "ellipsoid_prediction_failures".into(),
+        serde_json::json!(prediction_failures() - failures_before),
+    );
+    let placed = Placed {
+        particles,
+        volume,
+        min_gap: 0.0,
+        wall_gap: None,
+    };
+    finish(
+        scene,
+        original.record(),
+        &original,
+        placed,
+        stats,
+        done.reports,
+        seeding_seconds,
+    )
+}
+
+/// The second-order orientation tensor `T = ⟨w wᵀ⟩` of the ellipsoids' `a` axes (body x,
+/// paper 004 Eq. 1; `w` is the direction of Eq. 1b/33 up to sign, which `T` ignores) and the
+/// ratio `ρ = λ_max/λ_min` of its eigenvalues (1 for perfect isotropy, `T = I/3`).
+pub fn orientation_tensor(particles: &[ParticleRecord]) -> ([[f64; 3]; 3], f64) {
+    let mut t = Matrix3::<f64>::zeros();
+    let mut n = 0usize;
+    for p in particles {
+        if let ParticleRecord::Ellipsoid { orientation, .. } = p {
+            let [w, x, y, z] = *orientation;
+            let q = UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z));
+            let axis = q * Vec3::x();
+            t += axis * axis.transpose();
+            n += 1;
+        }
+    }
+    if n == 0 {
+        return ([[0.0; 3]; 3], f64::NAN);
+    }
+    t /= n as f64;
+    let eig = t.symmetric_eigenvalues();
+    let ratio = eig.max() / eig.min();
+    (
+        std::array::from_fn(|i| std::array::from_fn(|j| t[(i, j)])),
+        ratio,
+    )
+}

@@ -1,0 +1,976 @@
+//! The growing, rotating hard ellipsoid (paper 004, Ghossein & Lévesque).
+//!
+//! # State
+//! An [`Ellipsoid`] holds its semi-axes as a fixed shape (`axes`, largest entry 1) times a
+//! linearly growing scale `s(t) = s0 + g·t` (Eq. 9 with growth rates proportional to the
+//! semi-axes, as in the paper: `b0 = a0/R1`, `c0 = a0/R2`). Its [`Spin`] holds the unit
+//! quaternion at the particle's update time (body frame → world frame; the body axes carry
+//! the semi-axes) and the angular velocity in the world frame; free flight keeps the angular
+//! velocity constant and composes the orientation with the rotation `ω·Δt` (Eq. 10–11).
+//! Mass comes from the kernel's mass rule, the inertia tensor from Eq. 27b–28.
+//!
+//! # Collision prediction
+//! The bounding spheres (radius `s(t)`, Eq. 15–16) reject most pairs analytically. For the
+//! others the first contact is found by *certified stepping along a separating axis*:
+//!
+//! 1. at the current time, the Perram–Wertheim function `F(λ) = λ(1−λ) rᵀG(λ)⁻¹r`,
+//!    `G = (1−λ)M_a + λM_b`, `M = R·diag(semi-axes²)·Rᵀ`, is maximised over λ by a few
+//!    Newton steps from the previous λ; `n ∝ G⁻¹r` is the normal of the plane that separates
+//!    the two ellipsoids scaled by `√F` (the common tangent plane at their contact);
+//! 2. along that fixed `n` the gap `g_n(τ) = n·r(τ) − h_a(n,τ) − h_b(n,τ)` (`h(n) = √(nᵀMn)`,
+//!    the support function; the closed form of the plane distance) is a lower bound of the
+//!    true distance for *every* τ, so its first root never lies after the first contact;
+//! 3. `g_n` is bounded below by `g + g'δ − Kδ²/2`, with `g, g'` exact at the current time and
+//!    `K` a bound of `|h_a''| + |h_b''|` from the angular velocities, growth and aspect ratios
+//!    ([`support_curvature_bound`]); the first root of that quadratic is the step: no contact
+//!    can occur inside it (translation is exact; rotation and growth enter through `K`);
+//! 4. repeat until the gap is below [`CONTACT_TOLERANCE`] times the smallest semi-axis
+//!    (contact) or the time leaves the window.
+//!
+//! The steps shrink like Newton steps near a contact (the separating axis converges to the
+//! contact normal), a grazing pair walks past its closest approach in steps of `√(2g/K)`, and
+//! an enter-and-exit within one step is impossible by construction, so a first contact is
+//! never stepped over. A prediction that exceeds [`MAX_STEPS`] is counted
+//! ([`prediction_failures`]) and returned as an early event at the time reached, which the
+//! impulse resolves with zero impulse (the pair is re-predicted from there).
+//!
+//! The paper's own test, the roots of `η1(t)` of the characteristic polynomial
+//! `det(λA + B)` (Eq. 13, Table 1), is in [`crate::shape::quartic`]; the
+//! [`Predictor::Characteristic`] mode uses it, with Brent's method, for the final approach.
+//!
+//! # Collision response
+//! Frictionless impulse `j·n` at the contact point `x_c = c_a + (1−λ)M_a G⁻¹r` (Eq. 14: the
+//! kernel vector of the singular pencil at the double root) along the normal of Eq. 26, with
+//! `j` chosen so that the normal velocity of the contact point, measured against the growth of
+//! the two surfaces, is reflected (Eq. 32 with `e = 1`). This closed form is the solution of
+//! the 12 equations of Eq. 29–32 (tested against a direct solve).
+
+use super::quartic::{self, Configuration};
+use super::{first_falling_root, predict_sphere_sphere, Collidable, Growth, Vec3};
+use nalgebra::{Matrix3, UnitQuaternion};
+use rand::Rng;
+use rand_distr::StandardNormal;
+use std::f64::consts::PI;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Gap below which two ellipsoids (or an ellipsoid and a wall) count as touching, relative to
+/// the smallest semi-axis involved.
+pub const CONTACT_TOLERANCE: f64 = 1e-12;
+
+/// Most certified steps of one prediction before it is counted as a numerical failure.
+pub const MAX_STEPS: u32 = 500;
+
+static PREDICTION_FAILURES: AtomicU64 = AtomicU64::new(0);
+
+/// Number of ellipsoid predictions that hit [`MAX_STEPS`] or met a singular configuration
+/// since the process started (each was handled conservatively, never by a panic).
+pub fn prediction_failures() -> u64 {
+    PREDICTION_FAILURES.load(Ordering::Relaxed)
+}
+
+fn count_failure() {
+    PREDICTION_FAILURES.fetch_add(1, Ordering::Relaxed);
+}
+
+/// Which collision predictor an ellipsoid uses.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Predictor {
+    /// Certified steps along the Perram–Wertheim separating axis to contact (never late).
+    #[default]
+    SeparatingAxis,
+    /// The paper's method for the final approach: certified steps until the gap is below
+    /// 10⁻³ of the smallest semi-axis, then Brent's method on `η1(t)` in a bracket whose end
+    /// is found by doubling probes, accepted where the pair is externally tangent (Table 1).
+    /// Faster near contact, but a dip between two probes can be missed.
+    Characteristic,
+}
+
+/// A hard ellipsoid whose semi-axes grow in proportion: semi-axes `axes·s(t)`,
+/// `s(t) = s0 + g·t`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ellipsoid {
+    /// Semi-axes along the body x, y, z axes relative to the largest (largest entry 1).
+    pub axes: Vec3,
+    /// Largest semi-axis at kernel time 0 (length).
+    pub s0: f64,
+    /// Growth rate of the largest semi-axis (length/time); the others grow in proportion.
+    pub g: f64,
+    /// Collision predictor.
+    pub predictor: Predictor,
+}
+
+/// Orientation and angular velocity of an ellipsoid.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Spin {
+    /// Rotation from the body frame to the world frame at the particle's update time.
+    pub orientation: UnitQuaternion<f64>,
+    /// Angular velocity in the world frame (rad/time).
+    pub omega: Vec3,
+}
+
+impl Default for Spin {
+    fn default() -> Self {
+        Self {
+            orientation: UnitQuaternion::identity(),
+            omega: Vec3::zeros(),
+        }
+    }
+}
+
+impl Spin {
+    /// Rotation matrix body → world.
+    #[inline]
+    pub fn rotation(&self) -> Matrix3<f64> {
+        *self.orientation.to_rotation_matrix().matrix()
+    }
+}
+
+impl Ellipsoid {
+    /// An ellipsoid with the given semi-axes (along body x, y, z) that does not grow.
+    ///
+    /// # Panics
+    /// If a semi-axis is not finite and positive.
+    pub fn new(semi_axes: Vec3) -> Self {
+        assert!(
+            semi_axes.iter().all(|a| a.is_finite() && *a > 0.0),
+            "semi-axes must be finite and positive"
+        );
+        let s = semi_axes.max();
+        Self {
+            axes: semi_axes / s,
+            s0: s,
+            g: 0.0,
+            predictor: Predictor::SeparatingAxis,
+        }
+    }
+
+    /// Largest semi-axis at kernel time `t`.
+    #[inline]
+    pub fn scale_at(&self, t: f64) -> f64 {
+        self.s0 + self.g * t
+    }
+
+    /// Semi-axes at kernel time `t`.
+    #[inline]
+    pub fn semi_axes(&self, t: f64) -> Vec3 {
+        self.axes * self.scale_at(t)
+    }
+
+    /// Smallest semi-axis at kernel time `t`.
+    #[inline]
+    pub fn min_semi_axis(&self, t: f64) -> f64 {
+        self.axes.min() * self.scale_at(t)
+    }
+
+    /// `M = R·diag(a², b², c²)·Rᵀ` at time `t` for rotation `rot`: the inverse of the
+    /// quadric matrix, `h(n) = √(nᵀMn)` is the support function.
+    #[inline]
+    fn shape_matrix(&self, rot: &Matrix3<f64>, t: f64) -> Matrix3<f64> {
+        let d = self.semi_axes(t);
+        rot * Matrix3::from_diagonal(&d.component_mul(&d)) * rot.transpose()
+    }
+
+    /// Body-frame principal moments of inertia for mass `m` at time `t` (Eq. 27b).
+    #[inline]
+    pub fn principal_inertia(&self, m: f64, t: f64) -> Vec3 {
+        let d = self.semi_axes(t);
+        let d2 = d.component_mul(&d);
+        Vec3::new(d2.y + d2.z, d2.x + d2.z, d2.x + d2.y) * (m / 5.0)
+    }
+
+    /// `I⁻¹·x` in the world frame (Eq. 28) for rotation `rot`.
+    #[inline]
+    fn inverse_inertia_times(&self, rot: &Matrix3<f64>, m: f64, t: f64, x: &Vec3) -> Vec3 {
+        let body = rot.transpose() * x;
+        rot * body.component_div(&self.principal_inertia(m, t))
+    }
+
+    /// Growth rate of the semi-axes relative to their size, `ṡ/s`, at time `t`: a surface
+    /// point at support distance `h` moves outwards at `h·ṡ/s`.
+    #[inline]
+    fn relative_growth(&self, t: f64) -> f64 {
+        self.g / self.scale_at(t)
+    }
+}
+
+/// Bound of `|d²h/dτ²|` for the support function `h(n, τ)` of an ellipsoid along a fixed unit
+/// `n`, while it rotates at `|ω|` and its scale grows at `g` up to `s_max`.
+///
+/// With `h = s·φ(u)`, `φ(u) = |D u|` (`D` = relative semi-axes, largest 1, smallest `e`) and
+/// `u = Rᵀn` turning at `|u'| ≤ |ω|`, `|u''| ≤ |ω|²`: `|∇φ| ≤ 1`, `‖∇²φ‖ ≤ 1/e`, hence
+/// `|φ''| ≤ |ω|²(1 + 1/e)` and `|h''| ≤ 2g|ω| + s_max|ω|²(1 + 1/e)`.
+#[inline]
+pub fn support_curvature_bound(shape: &Ellipsoid, omega: f64, s_max: f64) -> f64 {
+    let e = shape.axes.min();
+    2.0 * shape.g.abs() * omega + s_max * omega * omega * (1.0 + 1.0 / e)
+}
+
+/// The pose of one ellipsoid at a trial time: centre offset, rotation and `M`.
+struct Pose {
+    rot: Matrix3<f64>,
+    m: Matrix3<f64>,
+}
+
+impl Pose {
+    #[inline]
+    fn of(shape: &Ellipsoid, spin: &Spin, dt: f64, t: f64) -> Self {
+        let rot = Ellipsoid::spin_after(spin, dt).rotation();
+        let m = shape.shape_matrix(&rot, t);
+        Self { rot, m }
+    }
+}
+
+/// Support function `h = √(nᵀMn)` and its time derivative along a fixed `n` for an ellipsoid
+/// rotating at `omega` and growing at relative rate `rel`: `ḣ = h·rel − ω·(n × Mn)/h`.
+#[inline]
+fn support_and_rate(m: &Matrix3<f64>, n: &Vec3, omega: &Vec3, rel: f64) -> (f64, f64) {
+    let mn = m * n;
+    let h = n.dot(&mn).sqrt();
+    (h, h * rel - omega.dot(&n.cross(&mn)) / h)
+}
+
+/// Support function along unit `n` of an ellipsoid `dt` after its spin state `spin`, at
+/// kernel time `t`, and its rate along the fixed `n` ([`support_and_rate`] without forming
+/// `M`: `Mn = R·D²·Rᵀn`).
+#[inline]
+fn support_along(shape: &Ellipsoid, spin: &Spin, dt: f64, t: f64, n: &Vec3) -> (f64, f64) {
+    let q = Ellipsoid::spin_after(spin, dt).orientation;
+    let body = q.inverse_transform_vector(n);
+    let d = shape.semi_axes(t);
+    let d2 = d.component_mul(&d);
+    let mn = q.transform_vector(&d2.component_mul(&body));
+    let h = n.dot(&mn).sqrt();
+    (
+        h,
+        h * shape.relative_growth(t) - spin.omega.dot(&n.cross(&mn)) / h,
+    )
+}
+
+/// The Perram–Wertheim function and its first two λ-derivatives for separation `r`
+/// (from a to b), or `None` if `G` is not positive definite (degenerate input).
+///
+/// `F = λ(1−λ) r·x`, `x = G⁻¹r`, `Δ = M_b − M_a`:
+/// `F' = (1−2λ) r·x − λ(1−λ) xᵀΔx`,
+/// `F'' = −2 r·x − 2(1−2λ) xᵀΔx + 2λ(1−λ) (Δx)ᵀG⁻¹(Δx)`.
+#[inline]
+fn pw_newton(
+    ma: &Matrix3<f64>,
+    mb: &Matrix3<f64>,
+    r: &Vec3,
+    lambda: f64,
+) -> Option<(Vec3, f64, f64)> {
+    let g = ma * (1.0 - lambda) + mb * lambda;
+    let inverse = symmetric_inverse(&g)?;
+    let x = inverse * r;
+    let delta = mb - ma;
+    let dx = delta * x;
+    let y = inverse * dx;
+    let rx = r.dot(&x);
+    let xdx = x.dot(&dx);
+    let l1 = lambda * (1.0 - lambda);
+    let f1 = (1.0 - 2.0 * lambda) * rx - l1 * xdx;
+    let f2 = -2.0 * rx - 2.0 * (1.0 - 2.0 * lambda) * xdx + 2.0 * l1 * dx.dot(&y);
+    Some((x, f1, f2))
+}
+
+/// Inverse of a symmetric positive definite 3×3 matrix by its adjugate (cheaper than a
+/// general factorisation for this size), or `None` if it is not positive definite.
+#[inline]
+fn symmetric_inverse(g: &Matrix3<f64>) -> Option<Matrix3<f64>> {
+    let c00 = g[(1, 1)] * g[(2, 2)] - g[(1, 2)] * g[(1, 2)];
+    let c01 = g[(1, 2)] * g[(0, 2)] - g[(0, 1)] * g[(2, 2)];
+    let c02 = g[(0, 1)] * g[(1, 2)] - g[(1, 1)] * g[(0, 2)];
+    let det = g[(0, 0)] * c00 + g[(0, 1)] * c01 + g[(0, 2)] * c02;
+    if !(det > 0.0 && g[(0, 0)] > 0.0 && c00 > 0.0) {
+        return None;
+    }
+    let c11 = g[(0, 0)] * g[(2, 2)] - g[(0, 2)] * g[(0, 2)];
+    let c12 = g[(0, 1)] * g[(0, 2)] - g[(0, 0)] * g[(1, 2)];
+    let c22 = g[(0, 0)] * g[(1, 1)] - g[(0, 1)] * g[(0, 1)];
+    let k = 1.0 / det;
+    Some(Matrix3::new(c00, c01, c02, c01, c11, c12, c02, c12, c22) * k)
+}
+
+/// Maximises the Perram–Wertheim function by safeguarded Newton steps from `lambda`
+/// (`F` is concave on `[0, 1]`, `F'(0) > 0 > F'(1)`) until a step is below `precision`.
+/// Returns the last λ evaluated and `G⁻¹r` there; `iterations` bounds the work (a warm
+/// start needs one or two). Any λ gives a valid separating axis for the prediction; only
+/// the contact point needs it converged.
+fn pw_maximise(
+    ma: &Matrix3<f64>,
+    mb: &Matrix3<f64>,
+    r: &Vec3,
+    mut lambda: f64,
+    iterations: u32,
+    precision: f64,
+) -> Option<(f64, Vec3)> {
+    let (mut lo, mut hi) = (0.0_f64, 1.0_f64);
+    let mut last = None;
+    for _ in 0..iterations {
+        let (x, f1, f2) = pw_newton(ma, mb, r, lambda)?;
+        last = Some((lambda, x));
+        if f1 > 0.0 {
+            lo = lambda;
+        } else {
+            hi = lambda;
+        }
+        let mut next = if f2 < 0.0 { lambda - f1 / f2 } else { f64::NAN };
+        if !(next >= lo && next <= hi) {
+            next = 0.5 * (lo + hi);
+        }
+        let step = (next - lambda).abs();
+        lambda = next;
+        if step < precision {
+            break;
+        }
+    }
+    last
+}
+
+/// First time `δ > 0` at which `g + g'δ − Kδ²/2` reaches zero (`g > 0`, `K ≥ 0`), `∞` if never.
+#[inline]
+fn certified_step(gap: f64, rate: f64, curvature: f64) -> f64 {
+    if curvature <= 0.0 {
+        return if rate < 0.0 {
+            gap / -rate
+        } else {
+            f64::INFINITY
+        };
+    }
+    let root = (rate * rate + 2.0 * curvature * gap).sqrt();
+    if rate < 0.0 {
+        2.0 * gap / (root - rate)
+    } else {
+        (rate + root) / curvature
+    }
+}
+
+/// Where two ellipsoids touch (or nearly): contact point, unit normal from `a` to `b`, the
+/// projected gap along it and the support distances of both centres along the normal.
+struct ContactGeometry {
+    point: Vec3,
+    normal: Vec3,
+    gap: f64,
+    ha: f64,
+    hb: f64,
+}
+
+/// Contact geometry of `a` (centre 0) and `b` (centre `r`) from the maximiser of the
+/// Perram–Wertheim function.
+fn contact_geometry(ma: &Matrix3<f64>, mb: &Matrix3<f64>, r: &Vec3) -> Option<ContactGeometry> {
+    let (lambda, x) = pw_maximise(ma, mb, r, 0.5, 60, 1e-15)?;
+    let normal = x.normalize();
+    let point = ma * x * (1.0 - lambda);
+    let ha = normal.dot(&(ma * normal)).sqrt();
+    let hb = normal.dot(&(mb * normal)).sqrt();
+    Some(ContactGeometry {
+        point,
+        normal,
+        gap: normal.dot(r) - ha - hb,
+        ha,
+        hb,
+    })
+}
+
+/// Contact point (relative to the centre of `a`) and unit normal (from `b` to `a`) of two
+/// touching ellipsoids at time `t`, `dr = c_a − c_b`: the point and normal that
+/// [`ellipsoid_pair_impulse`] uses (Eq. 14 and 26). `None` if the configuration is degenerate.
+pub fn contact_point_and_normal(
+    a: &Ellipsoid,
+    b: &Ellipsoid,
+    sa: &Spin,
+    sb: &Spin,
+    dr: &Vec3,
+    t: f64,
+) -> Option<(Vec3, Vec3)> {
+    let ma = a.shape_matrix(&sa.rotation(), t);
+    let mb = b.shape_matrix(&sb.rotation(), t);
+    contact_geometry(&ma, &mb, &-dr).map(|c| (c.point, -c.normal))
+}
+
+/// The relative motion of a pair during one prediction.
+struct PairMotion<'a> {
+    a: &'a Ellipsoid,
+    b: &'a Ellipsoid,
+    sa: &'a Spin,
+    sb: &'a Spin,
+    /// `c_b − c_a` at the prediction time.
+    r0: Vec3,
+    /// `v_b − v_a`.
+    w: Vec3,
+    t: f64,
+}
+
+impl PairMotion<'_> {
+    /// Shape matrices at `t + τ` and the separation.
+    #[inline]
+    fn at(&self, tau: f64) -> (Pose, Pose, Vec3) {
+        let pa = Pose::of(self.a, self.sa, tau, self.t + tau);
+        let pb = Pose::of(self.b, self.sb, tau, self.t + tau);
+        (pa, pb, self.r0 + self.w * tau)
+    }
+
+    /// The Perram–Wertheim separating axis at `t + τ` (unit, from a to b) and the improved
+    /// λ; `None` if the configuration is degenerate.
+    #[inline]
+    fn separating_axis(&self, tau: f64, lambda: f64, iterations: u32) -> Option<(Vec3, f64)> {
+        let (pa, pb, r) = self.at(tau);
+        let precision = if iterations > 8 { 1e-15 } else { 1e-8 };
+        let (lambda, x) = pw_maximise(&pa.m, &pb.m, &r, lambda, iterations, precision)?;
+        let norm = x.norm();
+        (norm > 0.0 && norm.is_finite()).then(|| (x / norm, lambda))
+    }
+
+    /// Projected gap along the fixed unit axis `n` at `t + τ` and its rate: a lower bound of
+    /// the distance for any `n`.
+    #[inline]
+    fn gap_along(&self, tau: f64, n: &Vec3) -> (f64, f64) {
+        let t = self.t + tau;
+        let (ha, ha_rate) = support_along(self.a, self.sa, tau, t, n);
+        let (hb, hb_rate) = support_along(self.b, self.sb, tau, t, n);
+        let r = self.r0 + self.w * tau;
+        (n.dot(&r) - ha - hb, n.dot(&self.w) - ha_rate - hb_rate)
+    }
+
+    /// [`PairMotion::separating_axis`] and the gap along it.
+    #[cfg(test)]
+    fn gap_and_rate(&self, tau: f64, lambda: f64, iterations: u32) -> Option<(f64, f64, f64)> {
+        let (n, lambda) = self.separating_axis(tau, lambda, iterations)?;
+        let (gap, rate) = self.gap_along(tau, &n);
+        Some((gap, rate, lambda))
+    }
+
+    /// Bound of the second derivative of the projected gap over `[t, t + max_tau]`.
+    fn curvature_bound(&self, max_tau: f64) -> f64 {
+        let end = self.t + max_tau;
+        support_curvature_bound(self.a, self.sa.omega.norm(), self.a.scale_at(end))
+            + support_curvature_bound(self.b, self.sb.omega.norm(), self.b.scale_at(end))
+    }
+
+    /// `η1` of the characteristic polynomial at `t + τ` and the configuration (Table 1).
+    fn characteristic(&self, tau: f64) -> (f64, Configuration) {
+        let (pa, pb, r) = self.at(tau);
+        let t = self.t + tau;
+        let p = quartic::pencil_coefficients(
+            &pa.rot,
+            &self.a.semi_axes(t),
+            &pb.rot,
+            &self.b.semi_axes(t),
+            &r,
+        );
+        let eta = quartic::Eta::of(&p);
+        (eta.eta1, quartic::classify(&p))
+    }
+}
+
+/// First contact time of two moving, rotating, growing ellipsoids within `[0, max_tau]`
+/// (see the module documentation). `dr = c_a − c_b`, `dv = v_a − v_b`, spins at time `t`.
+#[allow(clippy::too_many_arguments)]
+pub fn predict_ellipsoid_pair(
+    a: &Ellipsoid,
+    b: &Ellipsoid,
+    sa: &Spin,
+    sb: &Spin,
+    dr: &Vec3,
+    dv: &Vec3,
+    t: f64,
+    max_tau: f64,
+) -> Option<f64> {
+    // Bounding spheres (Eq. 15–16): no contact before they touch.
+    let sigma = a.scale_at(t) + b.scale_at(t);
+    let start = if dr.norm_squared() <= sigma * sigma {
+        0.0
+    } else {
+        predict_sphere_sphere(sigma, a.g + b.g, dr, dv, max_tau)?
+    };
+    let motion = PairMotion {
+        a,
+        b,
+        sa,
+        sb,
+        r0: -dr,
+        w: -dv,
+        t,
+    };
+    let curvature = motion.curvature_bound(max_tau);
+    let tolerance = CONTACT_TOLERANCE * a.min_semi_axis(t).min(b.min_semi_axis(t));
+    let switch = 1e-3 * a.min_semi_axis(t).min(b.min_semi_axis(t));
+    let mut tau = start;
+    let mut lambda = 0.5;
+    // Cheap steps along a fixed axis (first the centre line) until they have closed most of
+    // the gap; then the Perram–Wertheim axis is refreshed (the expensive part).
+    let mut axis = (motion.r0 + motion.w * tau).try_normalize(0.0);
+    let mut fresh = false;
+    let mut reference = f64::INFINITY;
+    for _ in 0..MAX_STEPS {
+        let n = match axis {
+            Some(n) => n,
+            None => {
+                let Some((n, l)) = motion.separating_axis(tau, lambda, 8) else {
+                    count_failure();
+                    return Some(tau);
+                };
+                lambda = l;
+                fresh = true;
+                axis = Some(n);
+                n
+            }
+        };
+        let (gap, rate) = motion.gap_along(tau, &n);
+        if fresh || !reference.is_finite() {
+            reference = gap;
+        }
+        if gap <= tolerance {
+            if !fresh {
+                // Perhaps only a stale axis: look again along the converged one.
+                axis = None;
+                continue;
+            }
+            let (n, l) = motion.separating_axis(tau, lambda, 60)?;
+            lambda = l;
+            axis = Some(n);
+            let (gap, rate) = motion.gap_along(tau, &n);
+            if gap <= tolerance {
+                if rate < 0.0 {
+                    return Some(tau);
+                }
+                // Touching but separating (just after a collision): step on from the
+                // contact, where the bound `g'δ − Kδ²/2` certifies the gap stays open.
+                let step = certified_step(gap.max(0.0), rate, curvature);
+                if step <= 0.0 {
+                    return Some(tau);
+                }
+                tau += step;
+                if tau > max_tau {
+                    return None;
+                }
+                fresh = false;
+                reference = f64::INFINITY;
+                continue;
+            }
+        }
+        if fresh && a.predictor == Predictor::Characteristic && gap < switch {
+            if let Some(found) = characteristic_contact(&motion, tau, gap, rate, max_tau) {
+                return found;
+            }
+        }
+        tau += certified_step(gap.max(0.0), rate, curvature);
+        if tau > max_tau {
+            return None;
+        }
+        // Refresh the axis once the gap along it has shrunk to a quarter of its value at
+        // the last refresh.
+        if gap < 0.25 * reference {
+            axis = None;
+        }
+        fresh = false;
+    }
+    count_failure();
+    Some(tau)
+}
+
+/// The paper's final approach: probes at `τ + 2^k·δ` (`δ` the linear time to contact) until
+/// the pair is no longer separate, then Brent's method on `η1` in the last bracket. Returns
+/// `None` to fall back to certified stepping (no bracket found), `Some(None)` if the pair
+/// stays apart in the window, `Some(Some(τ))` for a contact.
+fn characteristic_contact(
+    motion: &PairMotion,
+    tau: f64,
+    gap: f64,
+    rate: f64,
+    max_tau: f64,
+) -> Option<Option<f64>> {
+    if rate >= 0.0 {
+        return None;
+    }
+    let (eta_lo, config) = motion.characteristic(tau);
+    if config != Configuration::Separate || eta_lo <= 0.0 {
+        return None;
+    }
+    let base = gap / -rate;
+    let mut lo = tau;
+    for k in 0..40 {
+        let hi = tau + base * f64::powi(2.0, k - 2);
+        if hi > max_tau {
+            let (_, c) = motion.characteristic(max_tau);
+            return (c == Configuration::Separate).then_some(None);
+        }
+        let (eta_hi, c) = motion.characteristic(hi);
+        if c == Configuration::Separate {
+            lo = hi;
+            continue;
+        }
+        if eta_hi >= 0.0 {
+            return None;
+        }
+        let mut tol = 1e-14 * (hi.abs() + 1e-300);
+        let root = roots::find_root_brent(lo, hi, |x| motion.characteristic(x).0, &mut tol).ok()?;
+        // Externally tangent at the root: separate just before it (Table 1, cases 3–4).
+        let before = (root - 2.0 * tol).max(lo);
+        return (motion.characteristic(before).1 == Configuration::Separate)
+            .then_some(Some(before));
+    }
+    None
+}
+
+/// Resolves a contact of `a` and `b` (separation `dr = c_a − c_b`, relative velocity
+/// `dv = v_a − v_b`) at time `t`: the linear impulse on `a`; angular velocities updated.
+#[allow(clippy::too_many_arguments)]
+pub fn ellipsoid_pair_impulse(
+    a: &Ellipsoid,
+    b: &Ellipsoid,
+    sa: &mut Spin,
+    sb: &mut Spin,
+    dr: &Vec3,
+    dv: &Vec3,
+    t: f64,
+    ma: f64,
+    mb: f64,
+) -> Vec3 {
+    let (ra, rb) = (sa.rotation(), sb.rotation());
+    let (ma3, mb3) = (a.shape_matrix(&ra, t), b.shape_matrix(&rb, t));
+    let r = -dr;
+    let Some(contact) = contact_geometry(&ma3, &mb3, &r) else {
+        count_failure();
+        return Vec3::zeros();
+    };
+    let scale = a.min_semi_axis(t).min(b.min_semi_axis(t));
+    if contact.gap > 1e-6 * scale {
+        // An early event (failed prediction): not in contact, nothing to resolve.
+        return Vec3::zeros();
+    }
+    // Normal from b to a, lever arms from the centres to the contact point.
+    let n = -contact.normal;
+    let pa = contact.point;
+    let pb = contact.point - r;
+    let contact_velocity = dv + sa.omega.cross(&pa) - sb.omega.cross(&pb);
+    let u = contact_velocity.dot(&n);
+    // The surfaces grow towards each other at `S` (Eq. 32's growth term, exact for
+    // proportional growth where the paper bounds it by the largest rates); reflect the gap
+    // velocity `u − S` and never leave it closing.
+    let growth = contact.ha * a.relative_growth(t) + contact.hb * b.relative_growth(t);
+    let u_after = (2.0 * growth - u).max(growth);
+    let (arm_a, arm_b) = (pa.cross(&n), pb.cross(&n));
+    let ia_arm = a.inverse_inertia_times(&ra, ma, t, &arm_a);
+    let ib_arm = b.inverse_inertia_times(&rb, mb, t, &arm_b);
+    let k = 1.0 / ma + 1.0 / mb + arm_a.dot(&ia_arm) + arm_b.dot(&ib_arm);
+    let j = (u_after - u) / k;
+    sa.omega += ia_arm * j;
+    sb.omega -= ib_arm * j;
+    n * j
+}
+
+impl Collidable for Ellipsoid {
+    type Spin = Spin;
+    const ROTATES: bool = true;
+    const SHAPED_PLANE_CONTACT: bool = true;
+
+    #[inline]
+    fn bounding_radius(&self, t: f64) -> f64 {
+        self.scale_at(t)
+    }
+
+    #[inline]
+    fn bounding_growth_rate(&self) -> f64 {
+        self.g
+    }
+
+    #[inline]
+    fn volume(&self, t: f64) -> f64 {
+        let s = self.scale_at(t);
+        4.0 / 3.0 * PI * s * s * s * self.axes.x * self.axes.y * self.axes.z
+    }
+
+    fn rebase(&mut self, t0: f64) {
+        self.s0 = self.scale_at(t0);
+    }
+
+    /// Relative growth scales all semi-axes by `1 + rate·t`; absolute growth makes the
+    /// largest semi-axis grow at `rate` and the others in proportion (the shape is kept).
+    fn set_growth(&mut self, t: f64, growth: Growth) {
+        let s = self.scale_at(t);
+        self.g = match growth {
+            Growth::None => 0.0,
+            Growth::Relative(rate) => rate * s,
+            Growth::Absolute(rate) => rate,
+        };
+        self.s0 = s - self.g * t;
+    }
+
+    fn scale(&mut self, factor: f64) {
+        self.s0 *= factor;
+        self.g *= factor;
+    }
+
+    #[inline]
+    fn spin_after(spin: &Spin, dt: f64) -> Spin {
+        if dt == 0.0 || spin.omega == Vec3::zeros() {
+            return *spin;
+        }
+        // Eq. 10–11: compose with the rotation by |ω|·Δt about ω/|ω| (applied in the world
+        // frame, after the current orientation).
+        // Renormalised so that rounding cannot accumulate over millions of compositions.
+        let q = UnitQuaternion::from_scaled_axis(spin.omega * dt) * spin.orientation;
+        Spin {
+            orientation: UnitQuaternion::new_normalize(q.into_inner()),
+            omega: spin.omega,
+        }
+    }
+
+    fn thermal_spin<R: Rng>(&self, spin: &Spin, mass: f64, kt: f64, t: f64, rng: &mut R) -> Spin {
+        let inertia = self.principal_inertia(mass, t);
+        let body = Vec3::new(
+            rng.sample::<f64, _>(StandardNormal) * (kt / inertia.x).sqrt(),
+            rng.sample::<f64, _>(StandardNormal) * (kt / inertia.y).sqrt(),
+            rng.sample::<f64, _>(StandardNormal) * (kt / inertia.z).sqrt(),
+        );
+        Spin {
+            orientation: spin.orientation,
+            omega: spin.orientation * body,
+        }
+    }
+
+    #[inline]
+    fn rotational_kinetic_twice(&self, spin: &Spin, mass: f64, t: f64) -> f64 {
+        let body = spin.orientation.inverse() * spin.omega;
+        body.component_mul(&body)
+            .dot(&self.principal_inertia(mass, t))
+    }
+
+    #[inline]
+    fn scale_angular_velocity(spin: &mut Spin, factor: f64) {
+        spin.omega *= factor;
+    }
+
+    #[inline]
+    fn predict_collision(
+        a: &Self,
+        b: &Self,
+        sa: &Spin,
+        sb: &Spin,
+        dr: &Vec3,
+        dv: &Vec3,
+        t: f64,
+        max_tau: f64,
+    ) -> Option<f64> {
+        predict_ellipsoid_pair(a, b, sa, sb, dr, dv, t, max_tau)
+    }
+
+    #[inline]
+    fn collision_impulse(
+        a: &Self,
+        b: &Self,
+        sa: &mut Spin,
+        sb: &mut Spin,
+        dr: &Vec3,
+        dv: &Vec3,
+        t: f64,
+        ma: f64,
+        mb: f64,
+    ) -> Vec3 {
+        ellipsoid_pair_impulse(a, b, sa, sb, dr, dv, t, ma, mb)
+    }
+
+    /// Plane gap `d + (n·v)τ − h(n, τ)` with the support function `h = √(nᵀMn)` (the closed
+    /// form of the ellipsoid–plane distance), stepped like the pair prediction; `n` is fixed,
+    /// so the steps are exact up to the rotation and growth bound.
+    fn predict_plane_contact(
+        &self,
+        spin: &Spin,
+        n: &Vec3,
+        distance: f64,
+        normal_velocity: f64,
+        t: f64,
+        max_tau: f64,
+    ) -> Option<f64> {
+        // Bounding sphere first (most particles are far from every wall).
+        let sphere_rate = self.g - normal_velocity;
+        let s = self.scale_at(t);
+        let start = if distance <= s {
+            0.0
+        } else {
+            first_falling_root(0.0, -0.5 * sphere_rate, distance - s)?
+        };
+        if start > max_tau {
+            return None;
+        }
+        let curvature =
+            support_curvature_bound(self, spin.omega.norm(), self.scale_at(t + max_tau));
+        let tolerance = CONTACT_TOLERANCE * self.min_semi_axis(t);
+        let mut tau = start;
+        for _ in 0..MAX_STEPS {
+            let pose = Pose::of(self, spin, tau, t + tau);
+            let (h, h_rate) =
+                support_and_rate(&pose.m, n, &spin.omega, self.relative_growth(t + tau));
+            let gap = distance + normal_velocity * tau - h;
+            let rate = normal_velocity - h_rate;
+            if gap <= tolerance && rate < 0.0 {
+                return Some(tau);
+            }
+            let step = certified_step(gap.max(0.0), rate, curvature);
+            if step <= 0.0 {
+                return Some(tau);
+            }
+            tau += step;
+            if tau > max_tau {
+                return None;
+            }
+        }
+        count_failure();
+        Some(tau)
+    }
+
+    /// Impulse at the support point `−Mn/h` facing the wall, reflecting its normal velocity
+    /// against the growth of the surface there; virial `J·h`.
+    fn plane_impulse(
+        &self,
+        spin: &mut Spin,
+        n: &Vec3,
+        vel: &Vec3,
+        t: f64,
+        mass: f64,
+    ) -> (Vec3, f64) {
+        let rot = spin.rotation();
+        let m = self.shape_matrix(&rot, t);
+        let mn = m * n;
+        let h = n.dot(&mn).sqrt();
+        let arm = -mn / h;
+        let u = (vel + spin.omega.cross(&arm)).dot(n);
+        let growth = h * self.relative_growth(t);
+        let u_after = (2.0 * growth - u).max(growth);
+        let lever = arm.cross(n);
+        let i_lever = self.inverse_inertia_times(&rot, mass, t, &lever);
+        let j = (u_after - u) / (1.0 / mass + lever.dot(&i_lever));
+        spin.omega += i_lever * j;
+        (n * (j / mass), j * h)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> (Ellipsoid, Ellipsoid, Spin, Spin, Vec3, Vec3) {
+        let a = Ellipsoid {
+            g: 0.03,
+            ..Ellipsoid::new(Vec3::new(0.63, 0.31, 0.31))
+        };
+        let sa = Spin {
+            orientation: UnitQuaternion::from_scaled_axis(Vec3::new(0.3, -1.1, 0.4)),
+            omega: Vec3::new(-1.7, 10.3, -4.1),
+        };
+        let sb = Spin {
+            orientation: UnitQuaternion::from_scaled_axis(Vec3::new(-0.8, 0.2, 1.4)),
+            omega: Vec3::new(4.7, 2.6, -1.3),
+        };
+        (
+            a,
+            a,
+            sa,
+            sb,
+            Vec3::new(-0.29, -0.35, -1.14),
+            Vec3::new(0.13, 2.18, 0.51),
+        )
+    }
+
+    #[test]
+    fn perram_wertheim_derivatives_match_finite_differences() {
+        let (a, b, sa, sb, dr, _) = sample();
+        let ma = a.shape_matrix(&sa.rotation(), 0.0);
+        let mb = b.shape_matrix(&sb.rotation(), 0.0);
+        let r = -dr;
+        let f = |l: f64| {
+            let g = ma * (1.0 - l) + mb * l;
+            l * (1.0 - l) * r.dot(&g.try_inverse().unwrap().mul(&r))
+        };
+        use std::ops::Mul;
+        for &l in &[0.2, 0.5, 0.7] {
+            let (_, f1, f2) = pw_newton(&ma, &mb, &r, l).unwrap();
+            let h = 1e-5;
+            let n1 = (f(l + h) - f(l - h)) / (2.0 * h);
+            let n2 = (f(l + h) - 2.0 * f(l) + f(l - h)) / (h * h);
+            assert!((f1 - n1).abs() < 1e-6 * (1.0 + n1.abs()), "{f1} {n1}");
+            assert!((f2 - n2).abs() < 1e-3 * (1.0 + n2.abs()), "{f2} {n2}");
+        }
+    }
+
+    #[test]
+    fn gap_rate_along_fixed_axis_matches_finite_differences() {
+        let (a, b, sa, sb, dr, dv) = sample();
+        let motion = PairMotion {
+            a: &a,
+            b: &b,
+            sa: &sa,
+            sb: &sb,
+            r0: -dr,
+            w: -dv,
+            t: 0.0,
+        };
+        let tau = 0.05;
+        let (pa, pb, r) = motion.at(tau);
+        let (_, x) = pw_maximise(&pa.m, &pb.m, &r, 0.5, 60, 1e-15).unwrap();
+        let n = x.normalize();
+        let gap_n = |tau: f64| {
+            let (pa, pb, r) = motion.at(tau);
+            n.dot(&r) - n.dot(&(pa.m * n)).sqrt() - n.dot(&(pb.m * n)).sqrt()
+        };
+        let (_, rate, _) = motion.gap_and_rate(tau, 0.5, 60).unwrap();
+        let h = 1e-6;
+        let numeric = (gap_n(tau + h) - gap_n(tau - h)) / (2.0 * h);
+        assert!((rate - numeric).abs() < 1e-6, "{rate} {numeric}");
+    }
+
+    #[test]
+    fn plane_contact_of_a_translating_ellipsoid_is_exact() {
+        let e = Ellipsoid::new(Vec3::new(2.0, 1.0, 1.0));
+        let spin = Spin::default();
+        // Long axis along the wall normal: the tip touches when the centre is 2 away.
+        let tau = e
+            .predict_plane_contact(&spin, &Vec3::x(), 5.0, -1.5, 0.0, 10.0)
+            .unwrap();
+        assert!((tau - 2.0).abs() < 1e-12, "{tau}");
+        // Moving away: never.
+        assert_eq!(
+            e.predict_plane_contact(&spin, &Vec3::x(), 5.0, 0.5, 0.0, 10.0),
+            None
+        );
+    }
+
+    #[test]
+    fn plane_contact_of_a_rotating_growing_ellipsoid_matches_a_scan() {
+        let e = Ellipsoid {
+            g: 0.1,
+            ..Ellipsoid::new(Vec3::new(1.0, 0.3, 0.2))
+        };
+        let spin = Spin {
+            orientation: UnitQuaternion::from_scaled_axis(Vec3::new(0.4, 1.2, -0.3)),
+            omega: Vec3::new(0.3, 2.0, -1.1),
+        };
+        let n = Vec3::z();
+        let (distance, u) = (2.5, -0.4);
+        // Independent gap: half-width along z of the posed ellipsoid, √(Σ (R_zk a_k)²).
+        let gap = |tau: f64| {
+            let q = UnitQuaternion::from_scaled_axis(spin.omega * tau) * spin.orientation;
+            let r = q.to_rotation_matrix();
+            let a = e.semi_axes(tau);
+            let half = (0..3)
+                .map(|k| (r[(2, k)] * a[k]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            distance + u * tau - half
+        };
+        let predicted = e
+            .predict_plane_contact(&spin, &n, distance, u, 0.0, 20.0)
+            .unwrap();
+        let first = (1..=200_000)
+            .map(|i| i as f64 * 1e-4)
+            .find(|&tau| gap(tau) < 0.0)
+            .unwrap();
+        assert!(
+            predicted <= first && first - predicted < 2e-4,
+            "{predicted} vs {first}"
+        );
+        assert!(gap(predicted).abs() < 1e-9, "{}", gap(predicted));
+    }
+}
