@@ -238,21 +238,24 @@ impl CellGrid {
     /// along each axis (a superset of the bodies whose registered point is within `reach`).
     pub fn for_each_within(&self, level: usize, p: &Vec3, reach: f64, mut f: impl FnMut(usize)) {
         let lv = &self.levels[level];
-        let c = self.coords_at(lv, p);
-        // Per axis: the cell range lo..=hi, wrapped on periodic axes; the whole axis when the
-        // range would wrap onto itself.
+        // Per axis: the cells overlapping [p − reach, p + reach] (lo..=hi), wrapped on
+        // periodic axes; the whole axis when the range would wrap onto itself. Taking the
+        // exact overlap rather than ±ceil(reach/width) cells around p's cell scans about
+        // (2·reach/width + 1) cells per axis instead of (2·ceil(reach/width) + 1): 8 instead
+        // of 27 cells for a reach just over half a cell (measured: BENCHMARKS.md, concrete).
         let range = |k: usize| -> (i64, i64, i64) {
             let n = lv.dims[k] as i64;
-            let reach_cells = (reach / lv.width[k]).ceil().max(1.0) as i64;
-            let (lo, hi) = (c[k] as i64 - reach_cells, c[k] as i64 + reach_cells);
+            let x = (p[k] - self.origin[k]) / lv.width[k];
+            let r = reach / lv.width[k];
+            let (lo, hi) = ((x - r).floor() as i64, (x + r).floor() as i64);
             if self.periodic[k] {
-                if 2 * reach_cells + 1 >= n {
+                if hi - lo + 1 >= n {
                     (0, n - 1, n)
                 } else {
                     (lo, hi, n)
                 }
             } else {
-                (lo.max(0), hi.min(n - 1), n)
+                (lo.clamp(0, n - 1), hi.clamp(0, n - 1), n)
             }
         };
         let (rx, ry, rz) = (range(0), range(1), range(2));
