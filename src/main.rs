@@ -62,7 +62,13 @@ fn main() -> ExitCode {
                 }
             };
             match Scene::from_toml(&text) {
-                Ok(s) => run(&s, Some(out), quiet),
+                Ok(s) => {
+                    if let Err(e) = check_output_path(&out) {
+                        eprintln!("error: --out {}: {e}", out.display());
+                        return ExitCode::from(2);
+                    }
+                    run(&s, Some(out), quiet)
+                }
                 Err(e) => {
                     eprintln!("error: {}: {e}", scene.display());
                     ExitCode::from(2)
@@ -71,6 +77,22 @@ fn main() -> ExitCode {
         }
         Some(Command::Verify { packing, json }) => verify(&packing, json),
     }
+}
+
+/// Refuses an output path that cannot be written before a run spends hours on it: its
+/// directory must exist and the path must not be a directory.
+fn check_output_path(out: &std::path::Path) -> Result<(), String> {
+    let dir = out
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(std::path::Path::new("."));
+    if !dir.is_dir() {
+        return Err(format!("directory {} does not exist", dir.display()));
+    }
+    if out.is_dir() {
+        return Err("is a directory".into());
+    }
+    Ok(())
 }
 
 fn print_stage(k: usize, r: &StageReport) {

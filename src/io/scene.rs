@@ -28,7 +28,7 @@
 //! Every table rejects unknown keys; [`Scene::validate`] names the offending field and its
 //! allowed range.
 
-use crate::kernel::{KernelConfig, Limits, Stage, Until};
+use crate::kernel::{KernelConfig, Limits, Stage, Until, MAX_SKIN};
 use crate::queue::QueueKind;
 use crate::shape::{Growth, MassRule};
 use serde::Deserialize;
@@ -56,6 +56,7 @@ pub struct Scene {
     #[serde(default = "default_neighbour_skin")]
     pub neighbour_skin: f64,
     /// The container.
+    #[serde(deserialize_with = "deserialize_container")]
     pub container: ContainerSpec,
     /// The particles.
     pub particles: ParticlesSpec,
@@ -76,9 +77,14 @@ fn default_neighbour_skin() -> f64 {
     KernelConfig::default().neighbour_skin
 }
 
-/// The container of a scene.
+/// The container of a scene, written as a table with a `type` key (`type = "box"`).
+///
+/// The derived deserializer reads the externally tagged form (`{ box = { size = … } }`);
+/// [`deserialize_container`] turns the scene's `type` key into that form, so that errors
+/// inside the table name their field (`container.size[1]: invalid type …`), which serde's
+/// internally tagged enums cannot do.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+#[serde(rename_all = "lowercase", deny_unknown_fields)]
 pub enum ContainerSpec {
     /// An axis-aligned box.
     Box {
@@ -100,6 +106,42 @@ pub enum ContainerSpec {
         /// Height.
         height: f64,
     },
+}
+
+/// Reads the `[container]` table: its `type` key selects the variant, and errors name the
+/// offending field with its path (`container.size[1]`).
+fn deserialize_container<'de, D: serde::Deserializer<'de>>(
+    deserializer: D,
+) -> Result<ContainerSpec, D::Error> {
+    use serde::de::Error;
+    let mut table = toml::Table::deserialize(deserializer)?;
+    let kind = match table.remove("type") {
+        Some(toml::Value::String(kind)) => kind,
+        Some(other) => {
+            return Err(D::Error::custom(format!(
+                "container.type: expected a string (\"box\" or \"cylinder\"), found {}",
+                other.type_str()
+            )))
+        }
+        None => {
+            return Err(D::Error::custom(
+                "container.type: missing; give type = \"box\" or type = \"cylinder\"",
+            ))
+        }
+    };
+    let mut tagged = toml::Table::new();
+    tagged.insert(kind, toml::Value::Table(table));
+    serde_path_to_error::deserialize(toml::Value::Table(tagged)).map_err(|e| {
+        // The path starts with the variant (`box.size[1]`); name the scene's field instead.
+        let path = e.path().to_string();
+        let field = path.split_once('.').map_or("", |(_, rest)| rest);
+        let inner = e.into_inner();
+        if field.is_empty() {
+            D::Error::custom(format!("container: {inner}"))
+        } else {
+            D::Error::custom(format!("container.{field}: {inner}"))
+        }
+    })
 }
 
 /// One size class of particles.
@@ -196,13 +238,17 @@ pub enum SceneError {
     },
 }
 
-/// Total volume of spheres of the given diameters.
-fn sphere_volume(diameters: &[f64]) -> f64 {
-    diameters
+/// Total volume of the spheres of size classes `(count, diameter)`.
+fn classes_volume(classes: &[(usize, f64)]) -> f64 {
+    classes
         .iter()
-        .map(|d| std::f64::consts::PI / 6.0 * d.powi(3))
+        .map(|&(count, d)| count as f64 * std::f64::consts::PI / 6.0 * d.powi(3))
         .sum()
 }
+
+/// Most particles a scene may hold: the kernel indexes particles with `u32` and reserves
+/// `u32::MAX` as "no particle".
+pub const MAX_PARTICLES: usize = u32::MAX as usize - 1;
 
 fn invalid(field: impl Into<String>, message: impl Into<String>) -> SceneError {
     SceneError::Invalid {
@@ -245,25 +291,30 @@ impl Scene {
     /// The diameters the spheres are seeded with: as written, or all scaled by one factor so
     /// that they fill `particles.packing_fraction` of the container.
     pub fn seeding_diameters(&self) -> Vec<f64> {
-        let mut diameters = self.diameters();
-        if let Some(phi) = self.particles.packing_fraction {
-            let scale = (phi * self.container_volume() / sphere_volume(&diameters)).cbrt();
-            for d in &mut diameters {
-                *d *= scale;
-            }
-        }
-        diameters
+        let scale = self.seeding_scale();
+        self.size_classes()
+            .into_iter()
+            .flat_map(|(count, d)| std::iter::repeat_n(d * scale, count))
+            .collect()
     }
 
-    /// The diameters of all spheres as written in the scene (before seeding scale).
-    fn diameters(&self) -> Vec<f64> {
+    /// The factor by which the written diameters are scaled at seeding (1 without
+    /// `particles.packing_fraction`).
+    fn seeding_scale(&self) -> f64 {
+        match self.particles.packing_fraction {
+            Some(phi) => {
+                (phi * self.container_volume() / classes_volume(&self.size_classes())).cbrt()
+            }
+            None => 1.0,
+        }
+    }
+
+    /// The size classes as written, `(count, diameter)`: one class for equal spheres.
+    fn size_classes(&self) -> Vec<(usize, f64)> {
         let p = &self.particles;
         match &p.components {
-            Some(cs) => cs
-                .iter()
-                .flat_map(|c| std::iter::repeat_n(c.diameter, c.count))
-                .collect(),
-            None => vec![p.diameter.unwrap_or(0.0); p.count.unwrap_or(0)],
+            Some(cs) => cs.iter().map(|c| (c.count, c.diameter)).collect(),
+            None => vec![(p.count.unwrap_or(0), p.diameter.unwrap_or(0.0))],
         }
     }
 
@@ -284,7 +335,15 @@ impl Scene {
             "events_per_particle_per_interval",
             self.events_per_particle_per_interval,
         )?;
-        positive("neighbour_skin", self.neighbour_skin)?;
+        if !(self.neighbour_skin > 0.0 && self.neighbour_skin <= MAX_SKIN) {
+            return Err(invalid(
+                "neighbour_skin",
+                format!(
+                    "= {} is outside the allowed range (0, {MAX_SKIN}]",
+                    self.neighbour_skin
+                ),
+            ));
+        }
         // Container.
         let (smallest_extent, periodic_extent) = match &self.container {
             ContainerSpec::Box {
@@ -295,7 +354,16 @@ impl Scene {
                 for k in 0..3 {
                     positive(&format!("container.size[{k}]"), size[k])?;
                     if !min[k].is_finite() {
-                        return Err(invalid(format!("container.min[{k}]"), "must be finite"));
+                        return Err(invalid(
+                            format!("container.min[{k}]"),
+                            format!("= {} must be a finite number", min[k]),
+                        ));
+                    }
+                    if !(min[k] + size[k]).is_finite() {
+                        return Err(invalid(
+                            format!("container.size[{k}]"),
+                            "the upper corner min + size overflows a finite number",
+                        ));
                     }
                 }
                 let smallest = size.iter().copied().fold(f64::INFINITY, f64::min);
@@ -313,7 +381,10 @@ impl Scene {
                 positive("container.radius", *radius)?;
                 positive("container.height", *height)?;
                 if base_center.iter().any(|x| !x.is_finite()) {
-                    return Err(invalid("container.base_center", "must be finite"));
+                    return Err(invalid(
+                        "container.base_center",
+                        format!("= {base_center:?} must be finite numbers"),
+                    ));
                 }
                 ((2.0 * radius).min(*height), f64::INFINITY)
             }
@@ -351,14 +422,30 @@ impl Scene {
                 ))
             }
         }
+        let classes = self.size_classes();
+        let total = classes
+            .iter()
+            .try_fold(0usize, |sum, &(count, _)| sum.checked_add(count));
+        if total.is_none_or(|n| n > MAX_PARTICLES) {
+            return Err(invalid(
+                "particles",
+                format!("more than {MAX_PARTICLES} particles in all (the kernel's index range)"),
+            ));
+        }
         if p.rsa_max_failures == 0 {
             return Err(invalid("particles.rsa_max_failures", "= 0 must be ≥ 1"));
         }
         let container = self.container_volume();
+        if !(container.is_finite() && container > 0.0) {
+            return Err(invalid(
+                "container",
+                format!("its volume ({container}) must be a finite number > 0"),
+            ));
+        }
         if let Some(phi) = p.packing_fraction {
             fraction("particles.packing_fraction", phi)?;
         } else {
-            let filled = sphere_volume(&self.diameters()) / container;
+            let filled = classes_volume(&classes) / container;
             if filled >= 1.0 {
                 return Err(invalid(
                     "particles",
@@ -369,9 +456,20 @@ impl Scene {
                 ));
             }
         }
-        let diameters = self.seeding_diameters();
-        let seeded_phi = sphere_volume(&diameters) / container;
-        let d_max = diameters.iter().copied().fold(0.0, f64::max);
+        let scale = self.seeding_scale();
+        let seeded_phi = classes_volume(&classes) * scale.powi(3) / container;
+        if !(seeded_phi > 0.0 && seeded_phi.is_finite() && scale.is_finite()) {
+            return Err(invalid(
+                "particles",
+                format!(
+                    "the spheres' volume relative to the container ({seeded_phi:e}) is not a \
+                     positive finite number: the diameters are too small (or too large) for the \
+                     container"
+                ),
+            ));
+        }
+        let d_max = classes.iter().map(|&(_, d)| d * scale).fold(0.0, f64::max);
+        let equal_spheres = classes.iter().all(|&(_, d)| d == classes[0].1);
         if d_max >= smallest_extent {
             return Err(invalid(
                 "particles",
@@ -412,6 +510,15 @@ impl Scene {
             }
             if let Some(x) = u.packing_fraction {
                 fraction(&f("until.packing_fraction"), x)?;
+                if equal_spheres && x >= KEPLER_FRACTION {
+                    return Err(invalid(
+                        f("until.packing_fraction"),
+                        format!(
+                            "= {x} cannot be reached: equal spheres pack at most π/√18 ≈ \
+                             {KEPLER_FRACTION:.6} (Kepler); allowed range (0, {KEPLER_FRACTION:.6})"
+                        ),
+                    ));
+                }
                 if s.growth == GrowthKind::None {
                     return Err(invalid(
                         f("until.packing_fraction"),

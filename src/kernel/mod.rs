@@ -149,7 +149,7 @@ impl EventCounts {
 /// Largest neighbour-list skin the kernel adapts to. Thicker skins lengthen the lists (their
 /// memory grows with the cube of `1 + skin`) for little gain: in the φ = 0.5 fluid a fixed
 /// skin of 0.4 was as fast as any (BENCHMARKS.md, tuning).
-const MAX_SKIN: f64 = 0.5;
+pub const MAX_SKIN: f64 = 0.5;
 
 /// Which partners a prediction pass considers.
 #[derive(Clone, Copy)]
