@@ -1,10 +1,13 @@
 //! The `densepack` command line. Thin: parses, calls the library, prints.
 
 use clap::{Parser, Subcommand};
+use densepack::io::checkpoint::CheckpointFile;
 use densepack::io::packing::Packing;
 use densepack::io::scene::Scene;
 use densepack::kernel::StageReport;
-use densepack::run::{run_scene, RunError};
+use densepack::run::{
+    resume_run, run_scene, run_scene_checkpointed, CheckpointPlan, RunError, RunOutcome,
+};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -26,14 +29,27 @@ struct Cli {
 enum Command {
     /// Run a scene and write the packing (JSON).
     Run {
-        /// Scene file (TOML).
-        scene: PathBuf,
+        /// Scene file (TOML); not with --resume.
+        #[arg(required_unless_present = "resume", conflicts_with = "resume")]
+        scene: Option<PathBuf>,
         /// Output packing file.
         #[arg(long)]
         out: PathBuf,
         /// Print nothing but errors.
         #[arg(long)]
         quiet: bool,
+        /// Write a checkpoint to FILE during the run (atomically, at a time barrier, every
+        /// --checkpoint-every seconds); continue a killed run with --resume FILE.
+        #[arg(long, value_name = "FILE")]
+        checkpoint: Option<PathBuf>,
+        /// Wall-clock seconds between checkpoints.
+        #[arg(long, value_name = "SECONDS", default_value_t = 600.0, value_parser = parse_seconds)]
+        checkpoint_every: f64,
+        /// Continue the run that wrote CHECKPOINT to the packing the uninterrupted run gives
+        /// (same particles, bit for bit). Checkpoints go on into the same file unless
+        /// --checkpoint names another.
+        #[arg(long, value_name = "CHECKPOINT")]
+        resume: Option<PathBuf>,
     },
     /// Check a packing for overlaps, gaps and containment, independently of the simulation.
     Verify {
@@ -51,9 +67,40 @@ fn main() -> ExitCode {
         None => {
             println!("densepack: running the embedded default scene (10 000 equal spheres, periodic, grown to jamming)");
             let scene = Scene::from_toml(DEFAULT_SCENE).expect("the embedded scene is valid");
-            run(&scene, None, false)
+            run(|on_stage| run_scene(&scene, on_stage), None, false)
         }
-        Some(Command::Run { scene, out, quiet }) => {
+        Some(Command::Run {
+            scene,
+            out,
+            quiet,
+            checkpoint,
+            checkpoint_every,
+            resume,
+        }) => {
+            let every = std::time::Duration::from_secs_f64(checkpoint_every);
+            if let Err(e) = check_output_path(&out) {
+                eprintln!("error: --out {}: {e}", out.display());
+                return ExitCode::from(2);
+            }
+            if let Some(path) = resume {
+                let file = match CheckpointFile::read(&path) {
+                    Ok(f) => f,
+                    Err(e) => {
+                        eprintln!("error: {e}");
+                        return ExitCode::from(2);
+                    }
+                };
+                let plan = CheckpointPlan {
+                    path: checkpoint.unwrap_or(path),
+                    every,
+                };
+                return run(
+                    |on_stage| resume_run(&file, Some(&plan), on_stage),
+                    Some(out),
+                    quiet,
+                );
+            }
+            let scene = scene.expect("clap requires a scene without --resume");
             let text = match std::fs::read_to_string(&scene) {
                 Ok(t) => t,
                 Err(e) => {
@@ -63,11 +110,12 @@ fn main() -> ExitCode {
             };
             match Scene::from_toml(&text) {
                 Ok(s) => {
-                    if let Err(e) = check_output_path(&out) {
-                        eprintln!("error: --out {}: {e}", out.display());
-                        return ExitCode::from(2);
-                    }
-                    run(&s, Some(out), quiet)
+                    let plan = checkpoint.map(|path| CheckpointPlan { path, every });
+                    let start = |on_stage: &mut dyn FnMut(usize, &StageReport)| match &plan {
+                        Some(plan) => run_scene_checkpointed(&text, &s, plan, on_stage),
+                        None => run_scene(&s, on_stage),
+                    };
+                    run(start, Some(out), quiet)
                 }
                 Err(e) => {
                     eprintln!("error: {}: {e}", scene.display());
@@ -76,6 +124,14 @@ fn main() -> ExitCode {
             }
         }
         Some(Command::Verify { packing, json }) => verify(&packing, json),
+    }
+}
+
+/// A number of seconds ≥ 0.
+fn parse_seconds(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(s) if s.is_finite() && s >= 0.0 => Ok(s),
+        _ => Err(format!("`{text}` is not a number of seconds ≥ 0")),
     }
 }
 
@@ -107,13 +163,18 @@ fn print_stage(k: usize, r: &StageReport) {
     );
 }
 
-fn run(scene: &Scene, out: Option<PathBuf>, quiet: bool) -> ExitCode {
+/// Runs `start` (a fresh or resumed run), prints its summary and writes the packing.
+fn run(
+    start: impl FnOnce(&mut dyn FnMut(usize, &StageReport)) -> Result<RunOutcome, RunError>,
+    out: Option<PathBuf>,
+    quiet: bool,
+) -> ExitCode {
     let mut on_stage = |k: usize, r: &StageReport| {
         if !quiet {
             print_stage(k, r);
         }
     };
-    match run_scene(scene, &mut on_stage) {
+    match start(&mut on_stage) {
         Ok(outcome) => {
             let s = &outcome.packing.stats;
             if !quiet {
@@ -144,8 +205,10 @@ fn run(scene: &Scene, out: Option<PathBuf>, quiet: bool) -> ExitCode {
         }
         Err(e) => {
             eprintln!("error: {e}");
-            if let RunError::StageFailed { .. } = e {
-                eprintln!("no packing written");
+            match e {
+                RunError::StageFailed { .. } => eprintln!("no packing written"),
+                RunError::Checkpoint(_) => return ExitCode::from(2),
+                _ => {}
             }
             ExitCode::from(1)
         }

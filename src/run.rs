@@ -4,9 +4,10 @@
 //! monomorphised for them: a fully periodic box gets [`PeriodicBox`] (no wall code at all).
 
 use crate::boundary::{Boundary, CylinderContainer, PeriodicBox, WalledBox};
+use crate::io::checkpoint::{write_checkpoint, CheckpointError, CheckpointFile, CheckpointHeader};
 use crate::io::packing::{ContainerRecord, Packing, PackingStats, ParticleRecord, FORMAT};
 use crate::io::scene::{ContainerSpec, Scene};
-use crate::kernel::{Edmd, KernelConfig, StageReport};
+use crate::kernel::{Edmd, KernelConfig, StageProgress, StageReport};
 use crate::protocol::rsa::{rsa_spheres, RsaFailure};
 use crate::queue::{CalendarQueue, EventQueue, HeapQueue, QueueKind};
 use crate::shape::{Sphere, Vec3};
@@ -53,11 +54,120 @@ pub enum RunError {
     /// The independent check found overlaps: a kernel bug; nothing is written.
     #[error("the independent overlap check rejected the packing: {0}")]
     Verification(String),
+    /// The checkpoint to resume from cannot be used.
+    #[error(transparent)]
+    Checkpoint(#[from] CheckpointError),
+}
+
+/// Where and how often a run writes checkpoints ([`crate::io::checkpoint`]).
+#[derive(Clone, Debug)]
+pub struct CheckpointPlan {
+    /// The checkpoint file, replaced atomically at every write.
+    pub path: std::path::PathBuf,
+    /// Least wall-clock time between two checkpoints; they are written at the first time
+    /// barrier after it has passed.
+    pub every: std::time::Duration,
+}
+
+/// How a run starts and what it writes on the way.
+struct Job<'a> {
+    /// The scene's TOML text, stored in checkpoints.
+    scene_toml: &'a str,
+    /// A fresh run seeds; a resumed one rebuilds the kernel from the checkpoint.
+    resume: Option<&'a CheckpointFile>,
+    checkpoints: Option<&'a CheckpointPlan>,
+}
+
+/// Runs the scene given as TOML text (parsed and validated by the caller into `scene`)
+/// and writes checkpoints as `plan` says. The packing is the one [`run_scene`] gives.
+pub fn run_scene_checkpointed(
+    scene_toml: &str,
+    scene: &Scene,
+    plan: &CheckpointPlan,
+    on_stage: &mut dyn FnMut(usize, &StageReport),
+) -> Result<RunOutcome, RunError> {
+    let job = Job {
+        scene_toml,
+        resume: None,
+        checkpoints: Some(plan),
+    };
+    dispatch_container(scene, &job, on_stage)
+}
+
+/// Continues the run that wrote `checkpoint` to the packing the uninterrupted run gives
+/// (the same particles, bit for bit; timings differ), writing further checkpoints as `plan`
+/// says. `on_stage` hears of the stages that finish from here on.
+pub fn resume_run(
+    checkpoint: &CheckpointFile,
+    plan: Option<&CheckpointPlan>,
+    on_stage: &mut dyn FnMut(usize, &StageReport),
+) -> Result<RunOutcome, RunError> {
+    let header = &checkpoint.header;
+    let scene = Scene::from_toml(&header.scene_toml)
+        .map_err(|e| checkpoint.error(format!("its scene is invalid: {e}")))?;
+    if header.stage >= scene.stages.len() {
+        return Err(checkpoint
+            .error(format!(
+                "stage {} of a scene with {} stages",
+                header.stage,
+                scene.stages.len()
+            ))
+            .into());
+    }
+    let job = Job {
+        scene_toml: &header.scene_toml,
+        resume: Some(checkpoint),
+        checkpoints: plan,
+    };
+    dispatch_container(&scene, &job, on_stage)
+}
+
+/// Writes a checkpoint at a barrier once `plan.every` has passed since the last one.
+struct Checkpointer<'a> {
+    plan: &'a CheckpointPlan,
+    scene_toml: &'a str,
+    last: std::time::Instant,
+}
+
+impl Checkpointer<'_> {
+    fn at_barrier<B: Boundary, Q: EventQueue>(
+        &mut self,
+        stage: usize,
+        progress: &StageProgress,
+        reports: &[StageReport],
+        kernel: &Edmd<Sphere, B, Q>,
+    ) {
+        if self.last.elapsed() < self.plan.every {
+            return;
+        }
+        let header = CheckpointHeader::new(self.scene_toml, stage, progress, reports);
+        if let Err(e) = write_checkpoint(&self.plan.path, &header, &kernel.snapshot()) {
+            // The run goes on: a failed checkpoint costs insurance, not the result.
+            eprintln!(
+                "warning: checkpoint {} not written: {e}",
+                self.plan.path.display()
+            );
+        }
+        self.last = std::time::Instant::now();
+    }
 }
 
 /// Runs a validated scene. `on_stage` is told about each finished stage.
 pub fn run_scene(
     scene: &Scene,
+    on_stage: &mut dyn FnMut(usize, &StageReport),
+) -> Result<RunOutcome, RunError> {
+    let job = Job {
+        scene_toml: "",
+        resume: None,
+        checkpoints: None,
+    };
+    dispatch_container(scene, &job, on_stage)
+}
+
+fn dispatch_container(
+    scene: &Scene,
+    job: &Job,
     on_stage: &mut dyn FnMut(usize, &StageReport),
 ) -> Result<RunOutcome, RunError> {
     match &scene.container {
@@ -69,14 +179,14 @@ pub fn run_scene(
             let min = Vec3::from(*min);
             let len = Vec3::from(*size);
             if periodic.iter().all(|&p| p) {
-                dispatch_queue(scene, PeriodicBox { min, len }, on_stage)
+                dispatch_queue(scene, job, PeriodicBox { min, len }, on_stage)
             } else {
                 let walled = WalledBox {
                     min,
                     max: min + len,
                     periodic: *periodic,
                 };
-                dispatch_queue(scene, walled, on_stage)
+                dispatch_queue(scene, job, walled, on_stage)
             }
         }
         ContainerSpec::Cylinder {
@@ -89,19 +199,20 @@ pub fn run_scene(
                 radius: *radius,
                 height: *height,
             };
-            dispatch_queue(scene, cylinder, on_stage)
+            dispatch_queue(scene, job, cylinder, on_stage)
         }
     }
 }
 
 fn dispatch_queue<B: Boundary + ContainerRecordOf>(
     scene: &Scene,
+    job: &Job,
     boundary: B,
     on_stage: &mut dyn FnMut(usize, &StageReport),
 ) -> Result<RunOutcome, RunError> {
     match scene.queue {
-        QueueKind::Heap => run_with::<B, HeapQueue>(scene, boundary, on_stage),
-        QueueKind::Calendar => run_with::<B, CalendarQueue>(scene, boundary, on_stage),
+        QueueKind::Heap => run_with::<B, HeapQueue>(scene, job, boundary, on_stage),
+        QueueKind::Calendar => run_with::<B, CalendarQueue>(scene, job, boundary, on_stage),
     }
 }
 
@@ -143,29 +254,62 @@ impl ContainerRecordOf for CylinderContainer {
 
 fn run_with<B: Boundary + ContainerRecordOf, Q: EventQueue>(
     scene: &Scene,
+    job: &Job,
     boundary: B,
     on_stage: &mut dyn FnMut(usize, &StageReport),
 ) -> Result<RunOutcome, RunError> {
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(scene.seed);
-    let radii: Vec<f64> = scene.seeding_diameters().iter().map(|d| 0.5 * d).collect();
-    let centres = rsa_spheres(
-        &boundary,
-        &radii,
-        0.0,
-        scene.particles.rsa_max_failures,
-        &mut rng,
-    )?;
-    let shapes = radii.iter().map(|&r| Sphere::new(r)).collect();
     let config = KernelConfig {
         mass: scene.mass,
         temperature: scene.temperature,
         events_per_particle_per_interval: scene.events_per_particle_per_interval,
         neighbour_skin: scene.neighbour_skin,
     };
-    let mut kernel: Edmd<Sphere, B, Q> = Edmd::new(centres, shapes, boundary, config, &mut rng);
-    let mut reports: Vec<StageReport> = Vec::new();
-    for (k, spec) in scene.stages.iter().enumerate() {
-        let report = kernel.run_stage(&spec.to_stage());
+    // The random generator is consumed by seeding and the initial velocities only, so a
+    // checkpoint (taken at a later barrier) needs none of its state.
+    let (mut kernel, first_stage, mut resumed, mut reports): (Edmd<Sphere, B, Q>, _, _, _) =
+        match job.resume {
+            None => {
+                let mut rng = Xoshiro256PlusPlus::seed_from_u64(scene.seed);
+                let radii: Vec<f64> = scene.seeding_diameters().iter().map(|d| 0.5 * d).collect();
+                let centres = rsa_spheres(
+                    &boundary,
+                    &radii,
+                    0.0,
+                    scene.particles.rsa_max_failures,
+                    &mut rng,
+                )?;
+                let shapes = radii.iter().map(|&r| Sphere::new(r)).collect();
+                let kernel = Edmd::new(centres, shapes, boundary, config, &mut rng);
+                (kernel, 0, None, Vec::new())
+            }
+            Some(file) => {
+                let kernel = Edmd::from_snapshot(file.kernel()?, boundary, config)
+                    .map_err(|e| file.error(e.to_string()))?;
+                let progress: StageProgress = file.header.progress.clone().into_owned();
+                (
+                    kernel,
+                    file.header.stage,
+                    Some(progress),
+                    file.header.reports.to_vec(),
+                )
+            }
+        };
+    let mut checkpointer = job.checkpoints.map(|plan| Checkpointer {
+        plan,
+        scene_toml: job.scene_toml,
+        last: std::time::Instant::now(),
+    });
+    for (k, spec) in scene.stages.iter().enumerate().skip(first_stage) {
+        let stage = spec.to_stage();
+        let progress = match resumed.take() {
+            Some(progress) => progress,
+            None => kernel.start_stage(&stage),
+        };
+        let report = kernel.continue_stage(&stage, progress, &mut |kernel, progress| {
+            if let Some(c) = checkpointer.as_mut() {
+                c.at_barrier(k, progress, &reports, kernel);
+            }
+        });
         on_stage(k, &report);
         let failed = !report.stop_reason.is_success();
         reports.push(report);

@@ -1,4 +1,5 @@
 //! Files: scene descriptions in, packings out.
 
+pub mod checkpoint;
 pub mod packing;
 pub mod scene;

@@ -50,11 +50,13 @@
 //! from each centre to the contact point summed over the bodies that move (`σ` for a pair of
 //! spheres, `r` for a sphere against a wall: then `Z` is the wall pressure).
 
+mod checkpoint;
 mod local;
 mod stage;
 
+pub use checkpoint::{KernelSnapshot, SnapshotError};
 use local::{EventKind, LocalEvent, LocalList};
-pub use stage::{Limits, Stage, StageReport, StopReason, Until};
+pub use stage::{Limits, Stage, StageProgress, StageReport, StopReason, Until};
 
 use crate::boundary::{Boundary, WallId};
 use crate::queue::EventQueue;
@@ -64,7 +66,7 @@ use rand::Rng;
 use rand_distr::StandardNormal;
 
 /// A particle in delayed state: centre and velocity valid at `time`.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Particle<S> {
     /// Centre at `time`.
     pub pos: Vec3,
@@ -110,7 +112,7 @@ impl Default for KernelConfig {
 }
 
 /// Counts of processed events, by kind.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct EventCounts {
     /// All processed events (collisions, wall contacts, neighbour-list updates).
     pub events: u64,
