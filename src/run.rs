@@ -165,18 +165,28 @@ pub fn run_scene(
     dispatch_container(scene, &job, on_stage)
 }
 
+/// The point the kernel's coordinates are relative to: the box's lower corner or the
+/// cylinder's base centre. A coordinate far from zero is resolved only to its last place
+/// (1.2e-10 at 10⁶), coarser than the gaps of a jammed packing (~10⁻¹² of a diameter), so
+/// the kernel runs at the origin and the packing is translated when it is written (its
+/// coordinates then carry the resolution of the offset, which the overlap check's relative
+/// tolerance of 1e-9 covers for offsets up to ~10⁶ diameters).
+fn container_origin(scene: &Scene) -> Vec3 {
+    match &scene.container {
+        ContainerSpec::Box { min, .. } => Vec3::from(*min),
+        ContainerSpec::Cylinder { base_center, .. } => Vec3::from(*base_center),
+    }
+}
+
 fn dispatch_container(
     scene: &Scene,
     job: &Job,
     on_stage: &mut dyn FnMut(usize, &StageReport),
 ) -> Result<RunOutcome, RunError> {
+    // The kernel works relative to the container's origin (see `container_origin`).
     match &scene.container {
-        ContainerSpec::Box {
-            min,
-            size,
-            periodic,
-        } => {
-            let min = Vec3::from(*min);
+        ContainerSpec::Box { size, periodic, .. } => {
+            let min = Vec3::zeros();
             let len = Vec3::from(*size);
             if periodic.iter().all(|&p| p) {
                 dispatch_queue(scene, job, PeriodicBox { min, len }, on_stage)
@@ -189,13 +199,9 @@ fn dispatch_container(
                 dispatch_queue(scene, job, walled, on_stage)
             }
         }
-        ContainerSpec::Cylinder {
-            base_center,
-            radius,
-            height,
-        } => {
+        ContainerSpec::Cylinder { radius, height, .. } => {
             let cylinder = CylinderContainer {
-                base_center: Vec3::from(*base_center),
+                base_center: Vec3::zeros(),
                 radius: *radius,
                 height: *height,
             };
@@ -343,6 +349,7 @@ fn packing_of<B: Boundary + ContainerRecordOf, Q: EventQueue>(
     kernel: &Edmd<Sphere, B, Q>,
     reports: &[StageReport],
 ) -> Packing {
+    let origin = container_origin(scene);
     // Back to the order of the seeding, which the kernel permutes for cache locality.
     let mut order: Vec<u32> = vec![0; kernel.particles().len()];
     for (k, &id) in kernel.original_indices().iter().enumerate() {
@@ -353,7 +360,7 @@ fn packing_of<B: Boundary + ContainerRecordOf, Q: EventQueue>(
         .map(|k| {
             let p = &kernel.particles()[k as usize];
             ParticleRecord::Sphere {
-                center: p.pos.into(),
+                center: (p.pos + origin).into(),
                 radius: p.shape.radius(0.0),
             }
         })
@@ -380,7 +387,7 @@ fn packing_of<B: Boundary + ContainerRecordOf, Q: EventQueue>(
     Packing {
         format: FORMAT.into(),
         version: 1,
-        container: kernel.boundary().record(),
+        container: kernel.boundary().record().translated(origin.into()),
         particles,
         min_gap: 0.0,
         seed: scene.seed,

@@ -38,6 +38,29 @@ pub enum ContainerRecord {
     },
 }
 
+impl ContainerRecord {
+    /// The container moved by `offset`.
+    pub fn translated(self, offset: [f64; 3]) -> Self {
+        let add = |p: [f64; 3]| std::array::from_fn(|k| p[k] + offset[k]);
+        match self {
+            Self::Box { min, max, periodic } => Self::Box {
+                min: add(min),
+                max: add(max),
+                periodic,
+            },
+            Self::Cylinder {
+                base_center,
+                radius,
+                height,
+            } => Self::Cylinder {
+                base_center: add(base_center),
+                radius,
+                height,
+            },
+        }
+    }
+}
+
 /// One particle of a packing.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
@@ -122,12 +145,16 @@ impl Packing {
             path: path.display().to_string(),
             source,
         })?;
+        Self::from_json(&text, &path.display().to_string())
+    }
+
+    /// Parses and checks the text of a packing file; `path` names it in errors.
+    pub fn from_json(text: &str, path: &str) -> Result<Self, PackingError> {
         let format_err = |message: String| PackingError::Format {
-            path: path.display().to_string(),
+            path: path.to_string(),
             message,
         };
-        let packing: Packing =
-            serde_json::from_str(&text).map_err(|e| format_err(e.to_string()))?;
+        let packing: Packing = serde_json::from_str(text).map_err(|e| format_err(e.to_string()))?;
         if packing.format != FORMAT || packing.version != 1 {
             return Err(format_err(format!(
                 "format {:?} version {} (expected {FORMAT:?} version 1)",

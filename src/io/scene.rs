@@ -309,6 +309,13 @@ impl Scene {
         }
     }
 
+    /// Number of particles (saturating; validation bounds it by [`MAX_PARTICLES`]).
+    pub fn particle_count(&self) -> usize {
+        self.size_classes()
+            .iter()
+            .fold(0usize, |sum, &(count, _)| sum.saturating_add(count))
+    }
+
     /// The size classes as written, `(count, diameter)`: one class for equal spheres.
     fn size_classes(&self) -> Vec<(usize, f64)> {
         let p = &self.particles;
@@ -423,10 +430,7 @@ impl Scene {
             }
         }
         let classes = self.size_classes();
-        let total = classes
-            .iter()
-            .try_fold(0usize, |sum, &(count, _)| sum.checked_add(count));
-        if total.is_none_or(|n| n > MAX_PARTICLES) {
+        if self.particle_count() > MAX_PARTICLES {
             return Err(invalid(
                 "particles",
                 format!("more than {MAX_PARTICLES} particles in all (the kernel's index range)"),

@@ -1,6 +1,6 @@
 //! Stages: one growth protocol run until a stop criterion.
 
-use super::{Edmd, EventBudget, EventCounts};
+use super::{frozen_check_limit, Edmd, EventBudget, EventCounts};
 use crate::boundary::Boundary;
 use crate::queue::EventQueue;
 use crate::shape::{Collidable, Growth};
@@ -69,7 +69,8 @@ pub enum StopReason {
     TimeReached,
     /// The requested number of collisions per particle was processed.
     CollisionsReached,
-    /// Simulated time stopped advancing (Δt < ε over 1000 events).
+    /// Simulated time stopped advancing (Δt < ε over 1000 events, or no advance at all over
+    /// 100 events per particle), or nothing moves and nothing grows.
     Stalled,
     /// The event limit was hit.
     EventLimit,
@@ -126,6 +127,9 @@ pub struct StageReport {
     pub reduced_pressure_stderr: Option<f64>,
 }
 
+/// Multiple of its planned events after which a barrier interval ends early.
+const EARLY_BARRIER_EVENTS: f64 = 16.0;
+
 /// Per-interval pressure record: virial and `Σ m v² · Δt`.
 #[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
 struct PressureBlock {
@@ -159,6 +163,8 @@ pub struct StageProgress {
     since_check: u32,
     /// Simulated time at the last stall check.
     time_at_check: f64,
+    /// Consecutive stall checks without any advance of the time.
+    frozen_checks: u32,
     /// Wall-clock seconds spent on the stage before the current continuation.
     wall_seconds: f64,
 }
@@ -208,6 +214,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             events_left: stage.limits.events,
             since_check: 0,
             time_at_check: self.elapsed,
+            frozen_checks: 0,
             wall_seconds: 0.0,
         }
     }
@@ -234,6 +241,9 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             stall_epsilon: stage.limits.stall_epsilon,
             since_check: progress.since_check,
             time_at_check: progress.time_at_check,
+            frozen_checks: progress.frozen_checks,
+            frozen_limit: frozen_check_limit(self.particles.len()),
+            interval_events_left: 0,
             stopped: None,
         };
         let wall_before = progress.wall_seconds;
@@ -243,6 +253,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             progress.events_left = budget.events_left;
             progress.since_check = budget.since_check;
             progress.time_at_check = budget.time_at_check;
+            progress.frozen_checks = budget.frozen_checks;
             progress.wall_seconds = wall_before + started.elapsed().as_secs_f64();
             at_barrier(self, &progress);
             let mut this = interval;
@@ -255,6 +266,10 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 self.counters.neighbour_list_updates,
             );
             self.begin_interval(this);
+            // An interval that takes far more events than planned ends early: the approach
+            // to jamming inside one interval (the collision rate diverges there) would
+            // otherwise never reach the barrier where the pressure is measured.
+            budget.interval_events_left = (EARLY_BARRIER_EVENTS * target_events).ceil() as u64;
             let completed = self.run_interval(&mut budget);
             let t_end = if completed {
                 self.barrier_time
@@ -283,7 +298,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             if stage.thermostat && growing {
                 self.rescale_temperature();
             }
-            if !completed {
+            if budget.stopped.is_some() {
                 report_reason = budget.stopped;
                 break;
             }
@@ -308,6 +323,11 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 .is_some_and(|goal| self.counters.collisions >= goal)
             {
                 report_reason = Some(StopReason::CollisionsReached);
+                break;
+            }
+            if events == 0 && !growing && kinetic_end == 0.0 {
+                // Nothing moves and nothing grows: no event will ever happen.
+                report_reason = Some(StopReason::Stalled);
                 break;
             }
             // Adapt the interval to hold about `target_events` events.
@@ -340,11 +360,21 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
 
     /// A first barrier interval: a fraction of the time a particle needs to cross the
     /// smallest gap scale (the interval adapts from there).
+    ///
+    /// Particles at rest that grow close their gaps at twice their growth rate, so that rate
+    /// sets the scale when it exceeds the thermal speed (without it a start at rest would put
+    /// the whole run into one interval).
     fn initial_interval(&self) -> f64 {
         let n = self.particles.len().max(1) as f64;
-        let v_rms = (self.kinetic_twice() / n).sqrt().max(1e-300);
+        let v_rms = (self.kinetic_twice() / n).sqrt();
+        let closing = self
+            .particles
+            .iter()
+            .map(|p| 2.0 * p.shape.bounding_growth_rate())
+            .fold(v_rms, f64::max)
+            .max(1e-300);
         let d = self.max_diameter(0.0).max(1e-300);
-        0.05 * d / v_rms
+        0.05 * d / closing
     }
 
     /// Kernel time at which the packing fraction reaches `target` under the current growth,
