@@ -303,7 +303,7 @@ fn jam_row<B: Boundary + ContainerRecordOf>(
 fn jamming_and_long_runs_near_jamming_equal_spheres() {
     header();
     let n = size(1000, 10_000);
-    let rattle = if full() { 1000.0 } else { 300.0 };
+    let rattle = if full() { 1000.0 } else { 150.0 };
     let edge = 12.0 * (n as f64 / 1000.0).cbrt();
     let d = diameter_for(n, 0.3, edge.powi(3));
     let periodic = seeded(cube(edge), &vec![d; n], 1, 1.0);
@@ -320,7 +320,7 @@ fn jamming_and_long_runs_near_jamming_equal_spheres() {
 fn jamming_wide_size_ratios() {
     header();
     let ratio = if full() { 100.0 } else { 10.0 };
-    let n = size(600, 5000);
+    let n = size(400, 5000);
     let edge = 10.0 * (n as f64 / 600.0).cbrt();
     let mut diameters = vec![1.0; n];
     diameters.extend(vec![1.0 / ratio; n]);
@@ -334,7 +334,7 @@ fn jamming_wide_size_ratios() {
     assert_eq!(row.stops[0], StopReason::Jammed);
 
     // Ratio 4 with equal volumes of both sizes, walled.
-    let n_small = size(1280, 12_800);
+    let n_small = size(960, 12_800);
     let n_large = n_small / 64;
     let mut diameters = vec![4.0; n_large];
     diameters.extend(vec![1.0; n_small]);
