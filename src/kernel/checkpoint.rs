@@ -156,33 +156,74 @@ impl<S: Collidable + DeserializeOwned, B: Boundary, Q: EventQueue> Edmd<S, B, Q>
 
 #[cfg(test)]
 mod tests {
-    use crate::boundary::PeriodicBox;
+    use crate::boundary::{Boundary, CylinderContainer, PeriodicBox};
     use crate::kernel::{Edmd, KernelConfig, Limits, Stage, Until};
-    use crate::queue::CalendarQueue;
+    use crate::protocol::rsa::rsa_spheres;
+    use crate::queue::{CalendarQueue, EventQueue, HeapQueue};
     use crate::shape::{Growth, Sphere, Vec3};
     use rand::SeedableRng;
     use rand_xoshiro::Xoshiro256PlusPlus;
 
-    type Kernel = Edmd<Sphere, PeriodicBox, CalendarQueue>;
-
-    fn kernel() -> Kernel {
+    fn kernel<B: Boundary, Q: EventQueue>(boundary: B, n: usize, r: f64) -> Edmd<Sphere, B, Q> {
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(7);
+        let radii = vec![r; n];
+        let centres = rsa_spheres(&boundary, &radii, 0.0, 100_000, &mut rng).unwrap();
+        let shapes = radii.iter().map(|&r| Sphere::new(r)).collect();
+        Edmd::new(centres, shapes, boundary, KernelConfig::default(), &mut rng)
+    }
+
+    /// Runs `stage` twice from the same start: once through, once snapshotted at barrier
+    /// `at`, round-tripped through bytes and continued in a rebuilt kernel. Everything must
+    /// agree bit for bit: particles, counters, pressure and its error.
+    fn assert_resumes_exactly<B: Boundary, Q: EventQueue>(
+        mut original: Edmd<Sphere, B, Q>,
+        stage: &Stage,
+        at: usize,
+    ) {
+        let progress = original.start_stage(stage);
+        let mut saved = None;
+        let mut barriers = 0;
+        let report = original.continue_stage(stage, progress, &mut |k, p| {
+            barriers += 1;
+            if barriers == at {
+                saved = Some((
+                    postcard::to_stdvec(&k.snapshot()).unwrap(),
+                    postcard::to_stdvec(p).unwrap(),
+                ));
+            }
+        });
+        let (kernel_bytes, progress_bytes) = saved.expect("the stage reaches the barrier");
+        let snapshot = postcard::from_bytes(&kernel_bytes).unwrap();
+        let boundary = original.boundary().clone();
+        let mut restored: Edmd<Sphere, B, Q> =
+            Edmd::from_snapshot(snapshot, boundary, KernelConfig::default()).unwrap();
+        let progress = postcard::from_bytes(&progress_bytes).unwrap();
+        let resumed = restored.continue_stage(stage, progress, &mut |_, _| {});
+        assert_eq!(report.counts, resumed.counts);
+        assert_eq!(report.stop_reason, resumed.stop_reason);
+        assert_eq!(
+            report.reduced_pressure.to_bits(),
+            resumed.reduced_pressure.to_bits()
+        );
+        assert_eq!(
+            report.reduced_pressure_stderr.map(f64::to_bits),
+            resumed.reduced_pressure_stderr.map(f64::to_bits)
+        );
+        assert_eq!(report.simulated_time, resumed.simulated_time);
+        for (a, b) in original.particles().iter().zip(restored.particles()) {
+            assert_eq!(a.pos, b.pos);
+            assert_eq!(a.vel, b.vel);
+            assert_eq!(a.shape, b.shape);
+        }
+        assert_eq!(original.original_indices(), restored.original_indices());
+    }
+
+    #[test]
+    fn a_growth_stage_resumes_exactly_in_a_periodic_box() {
         let boundary = PeriodicBox {
             min: Vec3::zeros(),
             len: Vec3::repeat(6.0),
         };
-        // 5³ spheres on a lattice of spacing 1.2, radius 0.4.
-        let centres: Vec<Vec3> = (0..125)
-            .map(|k| Vec3::new((k % 5) as f64, ((k / 5) % 5) as f64, (k / 25) as f64) * 1.2)
-            .collect();
-        let shapes = vec![Sphere::new(0.4); 125];
-        Edmd::new(centres, shapes, boundary, KernelConfig::default(), &mut rng)
-    }
-
-    /// Snapshot in the middle of a growth stage, round trip through bytes, continue both:
-    /// the same particles, bit for bit, and the same counters.
-    #[test]
-    fn a_restored_kernel_continues_exactly() {
         let stage = Stage {
             growth: Growth::Relative(0.05),
             until: Until {
@@ -192,37 +233,27 @@ mod tests {
             limits: Limits::default(),
             thermostat: true,
         };
-        let mut original = kernel();
-        let progress = original.start_stage(&stage);
-        let mut saved = None;
-        let mut barriers = 0;
-        let report = original.continue_stage(&stage, progress, &mut |k, p| {
-            barriers += 1;
-            if barriers == 20 {
-                saved = Some((
-                    postcard::to_stdvec(&k.snapshot()).unwrap(),
-                    postcard::to_stdvec(p).unwrap(),
-                ));
-            }
-        });
-        let (kernel_bytes, progress_bytes) = saved.expect("the stage has 20 barriers");
-        let snapshot = postcard::from_bytes(&kernel_bytes).unwrap();
-        let boundary = original.boundary().clone();
-        let mut restored: Kernel =
-            Edmd::from_snapshot(snapshot, boundary, KernelConfig::default()).unwrap();
-        let progress = postcard::from_bytes(&progress_bytes).unwrap();
-        let resumed = restored.continue_stage(&stage, progress, &mut |_, _| {});
-        assert_eq!(report.counts, resumed.counts);
-        assert_eq!(report.stop_reason, resumed.stop_reason);
-        assert_eq!(
-            report.reduced_pressure.to_bits(),
-            resumed.reduced_pressure.to_bits()
-        );
-        for (a, b) in original.particles().iter().zip(restored.particles()) {
-            assert_eq!(a.pos, b.pos);
-            assert_eq!(a.vel, b.vel);
-            assert_eq!(a.shape, b.shape);
-        }
-        assert_eq!(original.original_indices(), restored.original_indices());
+        let k: Edmd<Sphere, _, CalendarQueue> = kernel(boundary, 125, 0.4);
+        assert_resumes_exactly(k, &stage, 20);
+    }
+
+    #[test]
+    fn an_equilibrium_stage_resumes_exactly_in_a_cylinder_with_the_heap() {
+        let boundary = CylinderContainer {
+            base_center: Vec3::zeros(),
+            radius: 3.0,
+            height: 5.0,
+        };
+        let stage = Stage {
+            growth: Growth::None,
+            until: Until {
+                collisions_per_particle: Some(200.0),
+                ..Until::default()
+            },
+            limits: Limits::default(),
+            thermostat: false,
+        };
+        let k: Edmd<Sphere, _, HeapQueue> = kernel(boundary, 150, 0.35);
+        assert_resumes_exactly(k, &stage, 30);
     }
 }
