@@ -4,9 +4,10 @@
 //! Every case is watched at every time barrier: the kernel is synchronised there, and its
 //! particles are handed to the independent check (`densepack::verify`, which shares no code
 //! with the kernel) — so "no overlap" holds for the whole run, not only for the final
-//! packing. Each case prints a row: stop reason, packing fraction, reduced pressure, the
-//! smallest pair gap and wall gap ever seen (relative; negative = overlap), and the
-//! kernel's counters.
+//! packing. Each case prints a row: stop reason, packing fraction, the smallest pair gap
+//! and wall gap ever seen (relative; negative = overlap within the check's 1e-9 tolerance),
+//! and the kernel's counters, among them `late` (events whose predicted time had already
+//! passed: rounding in a prediction) and `repred` (local lists predicted afresh).
 //!
 //! Sizes: reduced by default (the whole target takes about a minute in release mode, run by
 //! CI); `DENSEPACK_STRESS=full cargo test --release --test stress -- --nocapture` runs the
@@ -145,9 +146,9 @@ struct Row {
 
 fn header() {
     eprintln!(
-        "{:<34} {:>6} {:>9} {:>10} {:>10} {:>10} {:>11} {:>11} {:>9} {:>7} {:>7} {:>6} {:>7} {:>6}  stops",
+        "{:<34} {:>6} {:>9} {:>10} {:>10} {:>6} {:>11} {:>11} {:>9} {:>7} {:>7} {:>6} {:>6} {:>7} {:>6}  stops",
         "case", "N", "phi", "min gap", "min wall", "checks", "events", "collisions", "walls",
-        "nl upd", "stale", "repred", "barrier", "s"
+        "nl upd", "stale", "repred", "late", "barrier", "s"
     );
 }
 
@@ -156,7 +157,7 @@ impl Row {
         let c = &self.counts;
         let stops: Vec<&str> = self.stops.iter().map(|s| s.as_str()).collect();
         eprintln!(
-            "{:<34} {:>6} {:>9.6} {:>10.2e} {:>10.2e} {:>10} {:>11} {:>11} {:>9} {:>7} {:>7} {:>6} {:>7} {:>6.1}  {}",
+            "{:<34} {:>6} {:>9.6} {:>10.2e} {:>10.2e} {:>6} {:>11} {:>11} {:>9} {:>7} {:>7} {:>6} {:>6} {:>7} {:>6.1}  {}",
             self.name,
             self.n,
             self.phi,
@@ -169,6 +170,7 @@ impl Row {
             c.neighbour_list_updates,
             c.stale,
             c.repredictions,
+            c.late_events,
             c.barriers,
             self.seconds,
             stops.join(",")

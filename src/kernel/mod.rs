@@ -130,6 +130,9 @@ pub struct EventCounts {
     pub barriers: u64,
     /// Cell grid rebuilds.
     pub grid_rebuilds: u64,
+    /// Events whose predicted time was already past when they were processed (rounding in a
+    /// prediction; the event is processed at the current time). A numerical-health counter.
+    pub late_events: u64,
 }
 
 impl EventCounts {
@@ -144,6 +147,7 @@ impl EventCounts {
             repredictions: self.repredictions - before.repredictions,
             barriers: self.barriers - before.barriers,
             grid_rebuilds: self.grid_rebuilds - before.grid_rebuilds,
+            late_events: self.late_events - before.late_events,
         }
     }
 }
@@ -710,6 +714,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             let (idx, event) = self.local[i]
                 .earliest()
                 .expect("a queued particle has events");
+            let late = t < self.time;
             self.time = self.time.max(t);
             match event.kind() {
                 EventKind::Collision {
@@ -729,6 +734,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 EventKind::NeighbourList => self.renew_neighbours(i),
             }
             self.counters.events += 1;
+            self.counters.late_events += u64::from(late);
             if !budget.spend(self.elapsed + self.time) {
                 return false;
             }
