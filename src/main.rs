@@ -82,6 +82,10 @@ fn main() -> ExitCode {
                 eprintln!("error: --out {}: {e}", out.display());
                 return ExitCode::from(2);
             }
+            if let Some(Err(e)) = checkpoint.as_deref().map(check_output_path) {
+                eprintln!("error: --checkpoint: {e}");
+                return ExitCode::from(2);
+            }
             if let Some(path) = resume {
                 let file = match CheckpointFile::read(&path) {
                     Ok(f) => f,

@@ -597,6 +597,49 @@ fn output_in_a_missing_directory_is_refused_before_running() {
     );
 }
 
+/// Bad checkpoint options are refused before the run.
+#[test]
+fn bad_checkpoint_options_exit_2() {
+    let dir = temp_dir("ckopts");
+    let scene = dir.join("scene.toml");
+    std::fs::write(&scene, GOOD.text()).unwrap();
+    let out = dir.join("out.json");
+    let missing = dir.join("no-such-dir").join("run.ckpt");
+    for (name, extra, needle) in [
+        (
+            "checkpoint in a missing directory",
+            vec!["--checkpoint", missing.to_str().unwrap()],
+            "--checkpoint",
+        ),
+        (
+            "negative interval",
+            vec!["--checkpoint-every=-1"],
+            "--checkpoint-every",
+        ),
+        (
+            "NaN interval",
+            vec!["--checkpoint-every", "nan"],
+            "not a number of seconds",
+        ),
+    ] {
+        let mut args = vec![
+            "run",
+            scene.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        let run = densepack(&args);
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(2), "{name}: {stderr}");
+        assert!(
+            stderr.contains(needle),
+            "{name}: {stderr:?} lacks {needle:?}"
+        );
+        assert!(!out.exists(), "{name}: ran anyway");
+    }
+}
+
 /// Malformed packings given to `verify`: exit code 2 and a message naming the problem.
 #[test]
 fn malformed_packings_exit_2() {
