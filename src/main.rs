@@ -3,9 +3,13 @@
 mod cli;
 
 use clap::{Parser, Subcommand};
+use densepack::io::checkpoint::CheckpointFile;
 use densepack::io::scene::{AnyScene, MixtureScene, Scene};
 use densepack::kernel::{Progress, StageReport};
-use densepack::run::{run_mixture as run_mixture_scene, run_scene_observed, RunError};
+use densepack::run::{
+    resume_run, run_mixture as run_mixture_scene, run_scene_checkpointed, run_scene_observed,
+    CheckpointPlan, RunError, RunOutcome,
+};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -27,8 +31,9 @@ struct Cli {
 enum Command {
     /// Run a scene and write the packing (JSON).
     Run {
-        /// Scene file (TOML).
-        scene: PathBuf,
+        /// Scene file (TOML); not with --resume.
+        #[arg(required_unless_present = "resume", conflicts_with = "resume")]
+        scene: Option<PathBuf>,
         /// Output packing file.
         #[arg(long)]
         out: PathBuf,
@@ -39,6 +44,19 @@ enum Command {
         /// finished stage) instead of the live line.
         #[arg(long)]
         log_json: bool,
+        /// Write a checkpoint to FILE during the run (atomically, at a time barrier, every
+        /// --checkpoint-every seconds); continue a killed run with --resume FILE. Sphere
+        /// scenes only.
+        #[arg(long, value_name = "FILE")]
+        checkpoint: Option<PathBuf>,
+        /// Wall-clock seconds between checkpoints.
+        #[arg(long, value_name = "SECONDS", default_value_t = 600.0, value_parser = parse_seconds)]
+        checkpoint_every: f64,
+        /// Continue the run that wrote CHECKPOINT to the packing the uninterrupted run gives
+        /// (same particles, bit for bit). Checkpoints go on into the same file unless
+        /// --checkpoint names another.
+        #[arg(long, value_name = "CHECKPOINT")]
+        resume: Option<PathBuf>,
     },
     /// Check a packing for overlaps, gaps and containment, independently of the simulation.
     Verify {
@@ -70,14 +88,47 @@ fn main() -> ExitCode {
         None => {
             println!("densepack: running the embedded default scene (10 000 equal spheres, periodic, grown to jamming)");
             let scene = Scene::from_toml(DEFAULT_SCENE).expect("the embedded scene is valid");
-            run(&scene, None, false, false)
+            let start = |on_stage: &mut OnStage, on_progress: &mut OnProgress| {
+                run_scene_observed(&scene, on_stage, on_progress)
+            };
+            run(start, None, false, false)
         }
         Some(Command::Run {
             scene,
             out,
             quiet,
             log_json,
+            checkpoint,
+            checkpoint_every,
+            resume,
         }) => {
+            let every = std::time::Duration::from_secs_f64(checkpoint_every);
+            if let Err(e) = check_output_path(&out) {
+                eprintln!("error: --out {}: {e}", out.display());
+                return ExitCode::from(2);
+            }
+            if let Some(Err(e)) = checkpoint.as_deref().map(check_output_path) {
+                eprintln!("error: --checkpoint: {e}");
+                return ExitCode::from(2);
+            }
+            if let Some(path) = resume {
+                let file = match CheckpointFile::read(&path) {
+                    Ok(f) => f,
+                    Err(e) => {
+                        eprintln!("error: {e}");
+                        return ExitCode::from(2);
+                    }
+                };
+                let plan = CheckpointPlan {
+                    path: checkpoint.unwrap_or(path),
+                    every,
+                };
+                let start = |on_stage: &mut OnStage, on_progress: &mut OnProgress| {
+                    resume_run(&file, Some(&plan), on_stage, on_progress)
+                };
+                return run(start, Some(out), quiet, log_json);
+            }
+            let scene = scene.expect("clap requires a scene without --resume");
             let text = match std::fs::read_to_string(&scene) {
                 Ok(t) => t,
                 Err(e) => {
@@ -86,7 +137,23 @@ fn main() -> ExitCode {
                 }
             };
             match AnyScene::from_toml(&text) {
-                Ok(AnyScene::Spheres(s)) => run(&s, Some(out), quiet, log_json),
+                Ok(AnyScene::Spheres(s)) => {
+                    let plan = checkpoint.map(|path| CheckpointPlan { path, every });
+                    let start = |on_stage: &mut OnStage, on_progress: &mut OnProgress| match &plan {
+                        Some(plan) => {
+                            run_scene_checkpointed(&text, &s, plan, on_stage, on_progress)
+                        }
+                        None => run_scene_observed(&s, on_stage, on_progress),
+                    };
+                    run(start, Some(out), quiet, log_json)
+                }
+                Ok(AnyScene::Mixture(_)) if checkpoint.is_some() => {
+                    eprintln!(
+                        "error: --checkpoint: mixture scenes (RSA or relaxation, no time \
+                         barriers) cannot be checkpointed"
+                    );
+                    ExitCode::from(2)
+                }
                 Ok(AnyScene::Mixture(s)) => run_mixture(&s, &out, quiet),
                 Err(e) => {
                     eprintln!("error: {}: {e}", scene.display());
@@ -106,10 +173,45 @@ fn main() -> ExitCode {
     }
 }
 
-fn run(scene: &Scene, out: Option<PathBuf>, quiet: bool, log_json: bool) -> ExitCode {
+/// A number of seconds ≥ 0.
+fn parse_seconds(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(s) if s.is_finite() && s >= 0.0 => Ok(s),
+        _ => Err(format!("`{text}` is not a number of seconds ≥ 0")),
+    }
+}
+
+/// Refuses an output path that cannot be written before a run spends hours on it: its
+/// directory must exist and the path must not be a directory.
+fn check_output_path(out: &std::path::Path) -> Result<(), String> {
+    let dir = out
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(std::path::Path::new("."));
+    if !dir.is_dir() {
+        return Err(format!("directory {} does not exist", dir.display()));
+    }
+    if out.is_dir() {
+        return Err("is a directory".into());
+    }
+    Ok(())
+}
+
+/// Hears of every finished stage.
+type OnStage<'a> = dyn FnMut(usize, &StageReport) + 'a;
+/// Hears of a stage's progress at time barriers.
+type OnProgress<'a> = dyn FnMut(usize, &Progress) + 'a;
+
+/// Runs `start` (a fresh or resumed run) with the progress reporter, prints its summary and
+/// writes the packing.
+fn run(
+    start: impl FnOnce(&mut OnStage, &mut OnProgress) -> Result<RunOutcome, RunError>,
+    out: Option<PathBuf>,
+    quiet: bool,
+    log_json: bool,
+) -> ExitCode {
     let reporter = std::cell::RefCell::new(cli::progress::Reporter::new(quiet, log_json));
-    let result = run_scene_observed(
-        scene,
+    let result = start(
         &mut |k: usize, r: &StageReport| reporter.borrow_mut().stage_done(k, r),
         &mut |k: usize, p: &Progress| reporter.borrow_mut().progress(k, p),
     );
@@ -146,8 +248,10 @@ fn run(scene: &Scene, out: Option<PathBuf>, quiet: bool, log_json: bool) -> Exit
         }
         Err(e) => {
             eprintln!("error: {e}");
-            if let RunError::StageFailed { .. } = e {
-                eprintln!("no packing written");
+            match e {
+                RunError::StageFailed { .. } => eprintln!("no packing written"),
+                RunError::Checkpoint(_) => return ExitCode::from(2),
+                _ => {}
             }
             ExitCode::from(1)
         }

@@ -3,15 +3,20 @@
 //! [`run_scene`] picks the container and queue types from the scene once and runs a kernel
 //! monomorphised for them: a fully periodic box gets [`PeriodicBox`] (no wall code at all).
 //! Ellipsoid scenes go through [`ellipsoid`] with the same stage loop.
+//!
+//! The kernel runs relative to the container's origin ([`container_origin`]) and the packing
+//! is translated back when it is written. Sphere runs can write checkpoints at time barriers
+//! and be resumed from them ([`run_scene_checkpointed`], [`resume_run`]).
 
 pub mod ellipsoid;
 
 use crate::boundary::{Boundary, CylinderContainer, PeriodicBox, WalledBox};
+use crate::io::checkpoint::{write_checkpoint, CheckpointError, CheckpointFile, CheckpointHeader};
 use crate::io::packing::{
     ContainerRecord, Packing, PackingStats, ParticleRecord, Provenance, Timings, FORMAT,
 };
-use crate::io::scene::{ContainerSpec, Method, Scene};
-use crate::kernel::{Edmd, KernelConfig, Progress, StageReport, StopReason};
+use crate::io::scene::{ContainerSpec, Method, Scene, StageSpec};
+use crate::kernel::{Edmd, KernelConfig, Progress, StageProgress, StageReport, StopReason};
 use crate::protocol::rsa::{rsa_spheres, RsaFailure};
 use crate::queue::{CalendarQueue, EventQueue, HeapQueue, QueueKind};
 use crate::shape::{Collidable, Sphere, Vec3};
@@ -61,6 +66,105 @@ pub enum RunError {
     /// The independent check found overlaps: a kernel bug; nothing is written.
     #[error("the independent overlap check rejected the packing: {0}")]
     Verification(String),
+    /// The checkpoint to resume from cannot be used.
+    #[error(transparent)]
+    Checkpoint(#[from] CheckpointError),
+}
+
+/// Where and how often a run writes checkpoints ([`crate::io::checkpoint`]).
+#[derive(Clone, Debug)]
+pub struct CheckpointPlan {
+    /// The checkpoint file, replaced atomically at every write.
+    pub path: std::path::PathBuf,
+    /// Least wall-clock time between two checkpoints; they are written at the first time
+    /// barrier after it has passed.
+    pub every: std::time::Duration,
+}
+
+/// How a run starts and what it writes on the way.
+struct Job<'a> {
+    /// The scene's TOML text, stored in checkpoints.
+    scene_toml: &'a str,
+    /// A fresh run seeds; a resumed one rebuilds the kernel from the checkpoint.
+    resume: Option<&'a CheckpointFile>,
+    checkpoints: Option<&'a CheckpointPlan>,
+}
+
+/// Runs the scene given as TOML text (parsed and validated by the caller into `scene`)
+/// and writes checkpoints as `plan` says. The packing is the one [`run_scene_observed`]
+/// gives. Sphere scenes only: ellipsoid scenes are refused ([`RunError::Unsupported`]).
+pub fn run_scene_checkpointed(
+    scene_toml: &str,
+    scene: &Scene,
+    plan: &CheckpointPlan,
+    on_stage: &mut dyn FnMut(usize, &StageReport),
+    on_progress: &mut dyn FnMut(usize, &Progress),
+) -> Result<RunOutcome, RunError> {
+    let job = Job {
+        scene_toml,
+        resume: None,
+        checkpoints: Some(plan),
+    };
+    run_job(scene, &job, on_stage, on_progress)
+}
+
+/// Continues the run that wrote `checkpoint` to the packing the uninterrupted run gives
+/// (the same particles, bit for bit; timings differ), writing further checkpoints as `plan`
+/// says. `on_stage` hears of the stages that finish from here on.
+pub fn resume_run(
+    checkpoint: &CheckpointFile,
+    plan: Option<&CheckpointPlan>,
+    on_stage: &mut dyn FnMut(usize, &StageReport),
+    on_progress: &mut dyn FnMut(usize, &Progress),
+) -> Result<RunOutcome, RunError> {
+    let header = &checkpoint.header;
+    let scene = Scene::from_toml(&header.scene_toml)
+        .map_err(|e| checkpoint.error(format!("its scene is invalid: {e}")))?;
+    if header.stage >= scene.stages.len() {
+        return Err(checkpoint
+            .error(format!(
+                "stage {} of a scene with {} stages",
+                header.stage,
+                scene.stages.len()
+            ))
+            .into());
+    }
+    let job = Job {
+        scene_toml: &header.scene_toml,
+        resume: Some(checkpoint),
+        checkpoints: plan,
+    };
+    run_job(&scene, &job, on_stage, on_progress)
+}
+
+/// Writes a checkpoint at a barrier once `plan.every` has passed since the last one.
+struct Checkpointer<'a> {
+    plan: &'a CheckpointPlan,
+    scene_toml: &'a str,
+    last: std::time::Instant,
+}
+
+impl Checkpointer<'_> {
+    fn at_barrier<B: Boundary, Q: EventQueue>(
+        &mut self,
+        stage: usize,
+        progress: &StageProgress,
+        reports: &[StageReport],
+        kernel: &Edmd<Sphere, B, Q>,
+    ) {
+        if self.last.elapsed() < self.plan.every {
+            return;
+        }
+        let header = CheckpointHeader::new(self.scene_toml, stage, progress, reports);
+        if let Err(e) = write_checkpoint(&self.plan.path, &header, &kernel.snapshot()) {
+            // The run goes on: a failed checkpoint costs insurance, not the result.
+            eprintln!(
+                "warning: checkpoint {} not written: {e}",
+                self.plan.path.display()
+            );
+        }
+        self.last = std::time::Instant::now();
+    }
 }
 
 /// Runs a validated scene. `on_stage` is told about each finished stage.
@@ -78,52 +182,82 @@ pub fn run_scene_observed(
     on_stage: &mut dyn FnMut(usize, &StageReport),
     on_progress: &mut dyn FnMut(usize, &Progress),
 ) -> Result<RunOutcome, RunError> {
+    let job = Job {
+        scene_toml: "",
+        resume: None,
+        checkpoints: None,
+    };
+    run_job(scene, &job, on_stage, on_progress)
+}
+
+/// The point the kernel's coordinates are relative to: the box's lower corner or the
+/// cylinder's base centre. A coordinate far from zero is resolved only to its last place
+/// (1.2e-10 at 10⁶), coarser than the gaps of a jammed packing (~10⁻¹² of a diameter), so
+/// the kernel runs at the origin and [`finish`] translates the packing (its coordinates then
+/// carry the resolution of the offset, which the overlap check's relative tolerance of 1e-9
+/// covers for offsets up to ~10⁶ diameters).
+fn container_origin(scene: &Scene) -> [f64; 3] {
+    match &scene.container {
+        ContainerSpec::Box { min, .. } => *min,
+        ContainerSpec::Cylinder { base_center, .. } => *base_center,
+    }
+}
+
+fn run_job(
+    scene: &Scene,
+    job: &Job,
+    on_stage: &mut dyn FnMut(usize, &StageReport),
+    on_progress: &mut dyn FnMut(usize, &Progress),
+) -> Result<RunOutcome, RunError> {
     if scene.particles.ellipsoid.is_some() {
+        if job.resume.is_some() || job.checkpoints.is_some() {
+            return Err(RunError::Unsupported(
+                "checkpoint and resume are implemented for sphere scenes only; run this \
+                 ellipsoid scene without --checkpoint"
+                    .into(),
+            ));
+        }
         return ellipsoid::run_ellipsoid_scene(scene, on_stage, on_progress);
     }
+    // The kernel works relative to the container's origin (see `container_origin`).
     match &scene.container {
-        ContainerSpec::Box {
-            min,
-            size,
-            periodic,
-        } => {
-            let min = Vec3::from(*min);
+        ContainerSpec::Box { size, periodic, .. } => {
+            let min = Vec3::zeros();
             let len = Vec3::from(*size);
             if periodic.iter().all(|&p| p) {
-                dispatch_queue(scene, PeriodicBox { min, len }, on_stage, on_progress)
+                dispatch_queue(scene, job, PeriodicBox { min, len }, on_stage, on_progress)
             } else {
                 let walled = WalledBox {
                     min,
                     max: min + len,
                     periodic: *periodic,
                 };
-                dispatch_queue(scene, walled, on_stage, on_progress)
+                dispatch_queue(scene, job, walled, on_stage, on_progress)
             }
         }
-        ContainerSpec::Cylinder {
-            base_center,
-            radius,
-            height,
-        } => {
+        ContainerSpec::Cylinder { radius, height, .. } => {
             let cylinder = CylinderContainer {
-                base_center: Vec3::from(*base_center),
+                base_center: Vec3::zeros(),
                 radius: *radius,
                 height: *height,
             };
-            dispatch_queue(scene, cylinder, on_stage, on_progress)
+            dispatch_queue(scene, job, cylinder, on_stage, on_progress)
         }
     }
 }
 
 fn dispatch_queue<B: Boundary + SceneContainer>(
     scene: &Scene,
+    job: &Job,
     boundary: B,
     on_stage: &mut dyn FnMut(usize, &StageReport),
     on_progress: &mut dyn FnMut(usize, &Progress),
 ) -> Result<RunOutcome, RunError> {
     match scene.queue {
-        QueueKind::Heap => run_with::<B, HeapQueue>(scene, boundary, on_stage, on_progress),
-        QueueKind::Calendar => run_with::<B, CalendarQueue>(scene, boundary, on_stage, on_progress),
+        QueueKind::Heap => run_with::<B, HeapQueue>(scene, job, boundary, on_stage, on_progress),
+        QueueKind::Calendar => {
+            run_with::<B, CalendarQueue>(scene, job, boundary, on_stage, on_progress)
+        }
     }
 }
 
@@ -185,73 +319,110 @@ impl SceneContainer for CylinderContainer {
 
 fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
     scene: &Scene,
+    job: &Job,
     boundary: B,
     on_stage: &mut dyn FnMut(usize, &StageReport),
     on_progress: &mut dyn FnMut(usize, &Progress),
 ) -> Result<RunOutcome, RunError> {
     let started = std::time::Instant::now();
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(scene.seed);
+    // Drawn first from the seed, so a resumed run draws the same sizes again.
     let true_diameters = scene.true_diameters(&mut rng);
-    let scale = scene.seed_scale(&true_diameters);
-    let radii: Vec<f64> = true_diameters.iter().map(|d| 0.5 * scale * d).collect();
-    let (rsa_gap, rsa_wall_gap) = match scene.method {
-        Method::Rsa => {
-            let gap = scene.particles.gap.unwrap_or(0.0);
-            (gap, scene.particles.wall_gap.unwrap_or(0.5 * gap))
-        }
-        Method::Edmd => (0.0, 0.0),
-    };
-    let centres = rsa_spheres(
-        &boundary,
-        &radii,
-        rsa_gap,
-        rsa_wall_gap,
-        scene.particles.rsa_max_failures,
-        &mut rng,
-    )?;
-    let seeding_seconds = started.elapsed().as_secs_f64();
-    if scene.method == Method::Rsa {
-        let placed = Placed::spheres(
-            &boundary,
-            centres,
-            &radii,
-            rsa_gap,
-            scene.particles.wall_gap,
-        );
-        let stats = RunStats {
-            reduced_pressure: None,
-            events: 0,
-            collisions: 0,
-            wall_seconds: started.elapsed().as_secs_f64(),
-            stop_reason: "rsa_complete",
-            extra: serde_json::Map::new(),
-        };
-        let container = boundary.record();
-        return finish(
-            scene,
-            container,
-            &boundary,
-            placed,
-            stats,
-            Vec::new(),
-            seeding_seconds,
-        );
-    }
     let full_size_fraction = true_diameters
         .iter()
         .map(|d| std::f64::consts::PI / 6.0 * d * d * d)
         .sum::<f64>()
         / boundary.volume();
-    let shapes = radii.iter().map(|&r| Sphere::new(r)).collect();
     let original = boundary.clone();
-    let mut kernel: Edmd<Sphere, B, Q> =
-        Edmd::new(centres, shapes, boundary, kernel_config(scene), &mut rng);
+    // The random generator is consumed by seeding and the initial velocities only, so a
+    // checkpoint (taken at a later barrier) needs none of its state.
+    let (mut kernel, from, seeding_seconds): (Edmd<Sphere, B, Q>, _, _) = match job.resume {
+        None => {
+            let scale = scene.seed_scale(&true_diameters);
+            let radii: Vec<f64> = true_diameters.iter().map(|d| 0.5 * scale * d).collect();
+            let (rsa_gap, rsa_wall_gap) = match scene.method {
+                Method::Rsa => {
+                    let gap = scene.particles.gap.unwrap_or(0.0);
+                    (gap, scene.particles.wall_gap.unwrap_or(0.5 * gap))
+                }
+                Method::Edmd => (0.0, 0.0),
+            };
+            let centres = rsa_spheres(
+                &boundary,
+                &radii,
+                rsa_gap,
+                rsa_wall_gap,
+                scene.particles.rsa_max_failures,
+                &mut rng,
+            )?;
+            let seeding_seconds = started.elapsed().as_secs_f64();
+            if scene.method == Method::Rsa {
+                let placed = Placed::spheres(
+                    &boundary,
+                    centres,
+                    &radii,
+                    rsa_gap,
+                    scene.particles.wall_gap,
+                );
+                let stats = RunStats {
+                    reduced_pressure: None,
+                    events: 0,
+                    collisions: 0,
+                    wall_seconds: started.elapsed().as_secs_f64(),
+                    stop_reason: "rsa_complete",
+                    extra: serde_json::Map::new(),
+                };
+                let container = boundary.record();
+                return finish(
+                    scene,
+                    container,
+                    &boundary,
+                    placed,
+                    stats,
+                    Vec::new(),
+                    seeding_seconds,
+                );
+            }
+            let shapes = radii.iter().map(|&r| Sphere::new(r)).collect();
+            let kernel = Edmd::new(centres, shapes, boundary, kernel_config(scene), &mut rng);
+            (kernel, StagesFrom::start(), seeding_seconds)
+        }
+        Some(file) => {
+            let stage = file.header.stage;
+            // A gap stage in progress runs in its own container (walls moved out).
+            let walls_moved = walls_moved_by(&scene.stages[stage]);
+            let boundary = if walls_moved > 0.0 {
+                original.expanded(walls_moved)
+            } else {
+                boundary
+            };
+            let kernel = Edmd::from_snapshot(file.kernel()?, boundary, kernel_config(scene))
+                .map_err(|e| file.error(e.to_string()))?;
+            let from = StagesFrom {
+                stage,
+                progress: Some(file.header.progress.clone().into_owned()),
+                reports: file.header.reports.to_vec(),
+            };
+            (kernel, from, 0.0)
+        }
+    };
+    let mut checkpointer = job.checkpoints.map(|plan| Checkpointer {
+        plan,
+        scene_toml: job.scene_toml,
+        last: std::time::Instant::now(),
+    });
     let done = run_stages(
         scene,
         &mut kernel,
         full_size_fraction,
+        from,
         on_stage,
         on_progress,
+        &mut |k, kernel, progress, reports| {
+            if let Some(c) = checkpointer.as_mut() {
+                c.at_barrier(k, progress, reports, kernel);
+            }
+        },
     )?;
     let mut centres = vec![Vec3::zeros(); kernel.particles().len()];
     for (p, &id) in kernel.particles().iter().zip(kernel.original_indices()) {
@@ -259,14 +430,13 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
     }
     let grown = radii_by_id(&kernel);
     drop(kernel); // the verification's own index should not add to the kernel's peak memory
-    let (radii, min_gap, wall_gap) = match done.gap {
-        // Every radius gained the same at the absolute rate; the guaranteed gap is twice
-        // the smallest gain (they differ only by rounding), and the gain less how far the
-        // walls stepped back to the walls.
-        Some(GapOpened {
-            true_radii,
-            walls_moved,
-        }) => {
+    let (radii, min_gap, wall_gap) = match done.gap_walls_moved {
+        // The gap stage starts at the true sizes (validation requires it) and every radius
+        // gains the same at the absolute rate; the guaranteed gap is twice the smallest gain
+        // (they differ only by rounding), and the gain less how far the walls stepped back to
+        // the walls. The true radii come from the seed, so a resumed run writes the same.
+        Some(walls_moved) => {
+            let true_radii: Vec<f64> = true_diameters.iter().map(|d| 0.5 * d).collect();
             let gain = grown
                 .iter()
                 .zip(&true_radii)
@@ -301,47 +471,83 @@ fn kernel_config(scene: &Scene) -> KernelConfig {
     }
 }
 
-/// The stages of a run, and the gap stage's starting point if one ran.
+/// Where [`run_stages`] begins: at the first stage, or inside the stage a checkpoint was
+/// taken in.
+struct StagesFrom {
+    /// Index of the first stage to run.
+    stage: usize,
+    /// Where that stage stands, if it had started.
+    progress: Option<StageProgress>,
+    /// Reports of the stages before it.
+    reports: Vec<StageReport>,
+}
+
+impl StagesFrom {
+    /// A fresh run.
+    fn start() -> Self {
+        Self {
+            stage: 0,
+            progress: None,
+            reports: Vec::new(),
+        }
+    }
+}
+
+/// The stages of a run, and how far the walls stepped back for the gap stage if one ran.
 struct StagesDone {
     reports: Vec<StageReport>,
-    gap: Option<GapOpened>,
+    gap_walls_moved: Option<f64>,
 }
 
-/// Where a gap stage started: the (bounding) radii by seeding order, and how far the walls
-/// stepped back for it.
-struct GapOpened {
-    true_radii: Vec<f64>,
-    walls_moved: f64,
+/// How far a gap stage moves the walls out: `Δd/2 − wall_gap` when it keeps less than half
+/// the gap to the walls, else 0.
+fn walls_moved_by(spec: &StageSpec) -> f64 {
+    match (spec.until.gap, spec.wall_gap) {
+        (Some(g), Some(wall_gap)) => (0.5 * g - wall_gap).max(0.0),
+        _ => 0.0,
+    }
 }
 
-/// Runs the scene's stages in order; the first stage that misses its goal fails the run.
-/// `full_size_fraction` is the packing fraction of the particles at their true sizes.
+/// Shown the stage index, the kernel `K` at a time barrier, the stage's progress and the
+/// finished stages' reports.
+type AtBarrier<'a, K> = dyn FnMut(usize, &K, &StageProgress, &[StageReport]) + 'a;
+
+/// Runs the scene's stages in order from `from`; the first stage that misses its goal fails
+/// the run. `full_size_fraction` is the packing fraction of the particles at their true
+/// sizes. At every time barrier `on_progress` hears of the stage and `at_barrier` is shown
+/// the stage index, the kernel, the stage's progress and the finished stages' reports (the
+/// state a checkpoint stores).
 fn run_stages<S: Collidable, B: Boundary + SceneContainer, Q: EventQueue>(
     scene: &Scene,
     kernel: &mut Edmd<S, B, Q>,
     full_size_fraction: f64,
+    from: StagesFrom,
     on_stage: &mut dyn FnMut(usize, &StageReport),
     on_progress: &mut dyn FnMut(usize, &Progress),
+    at_barrier: &mut AtBarrier<'_, Edmd<S, B, Q>>,
 ) -> Result<StagesDone, RunError> {
-    let mut reports: Vec<StageReport> = Vec::new();
-    let mut gap = None;
+    let StagesFrom {
+        stage: first,
+        progress: mut resumed,
+        mut reports,
+    } = from;
+    let mut gap_walls_moved = None;
     let original = kernel.boundary().clone();
-    for (k, spec) in scene.stages.iter().enumerate() {
+    for (k, spec) in scene.stages.iter().enumerate().skip(first) {
+        // A resumed stage continues where its checkpoint was taken, in the kernel's container.
+        let progress = resumed.take();
         if spec.opens_gap() {
-            let mut walls_moved = 0.0;
-            if let (Some(g), Some(wall_gap)) = (spec.until.gap, spec.wall_gap) {
-                walls_moved = 0.5 * g - wall_gap;
-                if walls_moved > 0.0 {
-                    kernel.replace_boundary(original.expanded(walls_moved));
-                }
+            let walls_moved = walls_moved_by(spec);
+            if walls_moved > 0.0 && progress.is_none() {
+                kernel.replace_boundary(original.expanded(walls_moved));
             }
-            gap = Some(GapOpened {
-                true_radii: radii_by_id(kernel),
-                walls_moved,
-            });
+            gap_walls_moved = Some(walls_moved);
         }
-        let report = kernel.run_stage_observed(&spec.to_stage(full_size_fraction), &mut |p| {
-            on_progress(k, p)
+        let stage = spec.to_stage(full_size_fraction);
+        let progress = progress.unwrap_or_else(|| kernel.start_stage(&stage));
+        let report = kernel.continue_stage(&stage, progress, &mut |kernel, p| {
+            on_progress(k, &p.observed(kernel));
+            at_barrier(k, kernel, p, &reports);
         });
         on_stage(k, &report);
         // A gap stage succeeds only when its time is up (every radius gained Δd/2); jamming
@@ -366,7 +572,10 @@ fn run_stages<S: Collidable, B: Boundary + SceneContainer, Q: EventQueue>(
             });
         }
     }
-    Ok(StagesDone { reports, gap })
+    Ok(StagesDone {
+        reports,
+        gap_walls_moved,
+    })
 }
 
 /// Where a packing came from: this program, the resolved scene, the seed, the timings.
@@ -476,7 +685,8 @@ impl RunStats {
     }
 }
 
-/// Builds the packing, checks it independently and returns it.
+/// Builds the packing (translated from the kernel's coordinates to the scene's, see
+/// [`container_origin`]), checks it independently and returns it.
 fn finish<B: Boundary>(
     scene: &Scene,
     container: ContainerRecord,
@@ -486,11 +696,16 @@ fn finish<B: Boundary>(
     stages: Vec<StageReport>,
     seeding_seconds: f64,
 ) -> Result<RunOutcome, RunError> {
+    let origin = container_origin(scene);
     let mut packing = Packing {
         format: FORMAT.into(),
         version: 1,
-        container,
-        particles: placed.particles,
+        container: container.translated(origin),
+        particles: placed
+            .particles
+            .into_iter()
+            .map(|p| p.translated(origin))
+            .collect(),
         min_gap: placed.min_gap,
         wall_gap: placed.wall_gap,
         seed: scene.seed,

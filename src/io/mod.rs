@@ -1,5 +1,6 @@
 //! Files: scene descriptions in, packings out.
 
+pub mod checkpoint;
 pub mod export;
 pub mod packing;
 pub mod scene;

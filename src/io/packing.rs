@@ -40,6 +40,34 @@ pub enum ContainerRecord {
     },
 }
 
+/// `p + offset`.
+fn shifted(p: [f64; 3], offset: [f64; 3]) -> [f64; 3] {
+    std::array::from_fn(|k| p[k] + offset[k])
+}
+
+impl ContainerRecord {
+    /// The container moved by `offset`.
+    pub fn translated(self, offset: [f64; 3]) -> Self {
+        let add = |p| shifted(p, offset);
+        match self {
+            Self::Box { min, max, periodic } => Self::Box {
+                min: add(min),
+                max: add(max),
+                periodic,
+            },
+            Self::Cylinder {
+                base_center,
+                radius,
+                height,
+            } => Self::Cylinder {
+                base_center: add(base_center),
+                radius,
+                height,
+            },
+        }
+    }
+}
+
 /// One particle of a packing.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
@@ -73,6 +101,36 @@ pub enum ParticleRecord {
         /// semi-axes) into the world frame.
         orientation: [f64; 4],
     },
+}
+
+impl ParticleRecord {
+    /// The particle moved by `offset`.
+    pub fn translated(self, offset: [f64; 3]) -> Self {
+        match self {
+            Self::Sphere { center, radius } => Self::Sphere {
+                center: shifted(center, offset),
+                radius,
+            },
+            Self::Cylinder {
+                center,
+                radius,
+                half_axis,
+            } => Self::Cylinder {
+                center: shifted(center, offset),
+                radius,
+                half_axis,
+            },
+            Self::Ellipsoid {
+                center,
+                semi_axes,
+                orientation,
+            } => Self::Ellipsoid {
+                center: shifted(center, offset),
+                semi_axes,
+                orientation,
+            },
+        }
+    }
 }
 
 /// Run statistics stored with a packing.
@@ -186,12 +244,16 @@ impl Packing {
             path: path.display().to_string(),
             source,
         })?;
+        Self::from_json(&text, &path.display().to_string())
+    }
+
+    /// Parses and checks the text of a packing file; `path` names it in errors.
+    pub fn from_json(text: &str, path: &str) -> Result<Self, PackingError> {
         let format_err = |message: String| PackingError::Format {
-            path: path.display().to_string(),
+            path: path.to_string(),
             message,
         };
-        let packing: Packing =
-            serde_json::from_str(&text).map_err(|e| format_err(e.to_string()))?;
+        let packing: Packing = serde_json::from_str(text).map_err(|e| format_err(e.to_string()))?;
         if packing.format != FORMAT || packing.version != 1 {
             return Err(format_err(format!(
                 "format {:?} version {} (expected {FORMAT:?} version 1)",

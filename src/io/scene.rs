@@ -65,7 +65,7 @@
 //! Every table rejects unknown keys; [`Scene::validate`] names the offending field and its
 //! allowed range.
 
-use crate::kernel::{KernelConfig, Limits, Stage, Until};
+use crate::kernel::{KernelConfig, Limits, Stage, Until, MAX_SKIN};
 use crate::protocol::take_phase::{GradingSpec, TakeError, TakeParams, TakePhase};
 use crate::queue::QueueKind;
 use crate::shape::{Growth, MassRule, Predictor};
@@ -98,6 +98,10 @@ pub struct Scene {
     #[serde(default = "default_neighbour_skin")]
     pub neighbour_skin: f64,
     /// The container.
+    #[serde(
+        deserialize_with = "deserialize_container",
+        serialize_with = "serialize_container"
+    )]
     pub container: ContainerSpec,
     /// The particles.
     pub particles: ParticlesSpec,
@@ -129,9 +133,14 @@ fn default_neighbour_skin() -> f64 {
     KernelConfig::default().neighbour_skin
 }
 
-/// The container of a scene.
+/// The container of a scene, written as a table with a `type` key (`type = "box"`).
+///
+/// The derived serde impls use the externally tagged form (`{ box = { size = … } }`);
+/// [`deserialize_container`] and [`serialize_container`] turn the scene's `type` key into
+/// that form and back, so that errors inside the table name their field
+/// (`container.size[1]: invalid type …`), which serde's internally tagged enums cannot do.
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
-#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+#[serde(rename_all = "lowercase", deny_unknown_fields)]
 pub enum ContainerSpec {
     /// An axis-aligned box.
     Box {
@@ -153,6 +162,65 @@ pub enum ContainerSpec {
         /// Height.
         height: f64,
     },
+}
+
+/// Reads the `[container]` table: its `type` key selects the variant, and errors name the
+/// offending field with its path (`container.size[1]`).
+fn deserialize_container<'de, D: serde::Deserializer<'de>>(
+    deserializer: D,
+) -> Result<ContainerSpec, D::Error> {
+    use serde::de::Error;
+    let mut table = toml::Table::deserialize(deserializer)?;
+    let kind = match table.remove("type") {
+        Some(toml::Value::String(kind)) => kind,
+        Some(other) => {
+            return Err(D::Error::custom(format!(
+                "container.type: expected a string (\"box\" or \"cylinder\"), found {}",
+                other.type_str()
+            )))
+        }
+        None => {
+            return Err(D::Error::custom(
+                "container.type: missing; give type = \"box\" or type = \"cylinder\"",
+            ))
+        }
+    };
+    let mut tagged = toml::Table::new();
+    tagged.insert(kind, toml::Value::Table(table));
+    serde_path_to_error::deserialize(toml::Value::Table(tagged)).map_err(|e| {
+        // The path starts with the variant (`box.size[1]`); name the scene's field instead.
+        let path = e.path().to_string();
+        let field = path.split_once('.').map_or("", |(_, rest)| rest);
+        let inner = e.into_inner();
+        if field.is_empty() {
+            D::Error::custom(format!("container: {inner}"))
+        } else {
+            D::Error::custom(format!("container.{field}: {inner}"))
+        }
+    })
+}
+
+/// Writes the container as the scene has it: one table with a `type` key (the inverse of
+/// [`deserialize_container`]; the resolved scene of a packing's provenance).
+fn serialize_container<S: serde::Serializer>(
+    container: &ContainerSpec,
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
+    use serde::ser::Error;
+    use serde_json::Value;
+    let tagged = serde_json::to_value(container).map_err(S::Error::custom)?;
+    let Value::Object(variants) = tagged else {
+        return Err(S::Error::custom(
+            "a container serialises to a variant table",
+        ));
+    };
+    let Some((kind, Value::Object(mut table))) = variants.into_iter().next() else {
+        return Err(S::Error::custom(
+            "a container serialises to a variant table",
+        ));
+    };
+    table.insert("type".into(), Value::String(kind));
+    table.serialize(serializer)
 }
 
 /// One size class of particles.
@@ -367,6 +435,10 @@ pub enum SceneError {
     },
 }
 
+/// Most particles a scene may hold: the kernel indexes particles with `u32` and reserves
+/// `u32::MAX` as "no particle".
+pub const MAX_PARTICLES: usize = u32::MAX as usize - 1;
+
 /// Total volume of spheres of the given diameters.
 fn sphere_volume(diameters: &[f64]) -> f64 {
     diameters
@@ -522,6 +594,19 @@ impl Scene {
         )
     }
 
+    /// Number of particles as written (saturating; validation bounds it by
+    /// [`MAX_PARTICLES`]), or `None` for a grading curve, whose count is drawn.
+    pub fn particle_count(&self) -> Option<usize> {
+        let p = &self.particles;
+        if p.grading.is_some() {
+            return None;
+        }
+        Some(match &p.components {
+            Some(cs) => cs.iter().fold(0usize, |sum, c| sum.saturating_add(c.count)),
+            None => p.count.unwrap_or(0),
+        })
+    }
+
     /// Volume of the container.
     pub fn container_volume(&self) -> f64 {
         match &self.container {
@@ -545,9 +630,26 @@ impl Scene {
             "events_per_particle_per_interval",
             self.events_per_particle_per_interval,
         )?;
-        positive("neighbour_skin", self.neighbour_skin)?;
+        if !(self.neighbour_skin > 0.0 && self.neighbour_skin <= MAX_SKIN) {
+            return Err(invalid(
+                "neighbour_skin",
+                format!(
+                    "= {} is outside the allowed range (0, {MAX_SKIN}]",
+                    self.neighbour_skin
+                ),
+            ));
+        }
         let (smallest_extent, periodic_extent) = self.validate_container()?;
         let sizes = self.validate_particles()?;
+        if sizes.count > MAX_PARTICLES as f64 {
+            return Err(invalid(
+                "particles",
+                format!(
+                    "{:.4e} particles in all: more than {MAX_PARTICLES} (the kernel's index range)",
+                    sizes.count
+                ),
+            ));
+        }
         let container = self.container_volume();
         let p = &self.particles;
         if p.packing_fraction.is_some() && p.seed_scale.is_some() {
@@ -579,6 +681,17 @@ impl Scene {
             Some(phi) => (phi * container / sizes.volume).cbrt(),
             None => p.seed_scale.unwrap_or(1.0),
         };
+        let seeded_phi = sizes.volume * scale.powi(3) / container;
+        if !(seeded_phi > 0.0 && seeded_phi.is_finite() && scale.is_finite()) {
+            return Err(invalid(
+                "particles",
+                format!(
+                    "the spheres' volume relative to the container ({seeded_phi:e}) is not a \
+                     positive finite number: the diameters are too small (or too large) for the \
+                     container"
+                ),
+            ));
+        }
         let rsa_gap = p.gap.unwrap_or(0.0);
         if let Some(g) = p.gap {
             if self.method != Method::Rsa {
@@ -641,7 +754,6 @@ impl Scene {
         let final_diameter = self.validate_stages(&sizes, scale, container)?;
         if let Some(e) = &self.particles.ellipsoid {
             let grows = self.stages.iter().any(|s| s.growth != GrowthKind::None);
-            let seeded_phi = sizes.volume * scale.powi(3) / container;
             self.validate_ellipsoids(
                 e,
                 d_seed,
@@ -670,7 +782,7 @@ impl Scene {
 
     /// Checks the container; returns its smallest extent and smallest periodic edge.
     fn validate_container(&self) -> Result<(f64, f64), SceneError> {
-        match &self.container {
+        let extents = match &self.container {
             ContainerSpec::Box {
                 min,
                 size,
@@ -679,7 +791,16 @@ impl Scene {
                 for k in 0..3 {
                     positive(&format!("container.size[{k}]"), size[k])?;
                     if !min[k].is_finite() {
-                        return Err(invalid(format!("container.min[{k}]"), "must be finite"));
+                        return Err(invalid(
+                            format!("container.min[{k}]"),
+                            format!("= {} must be a finite number", min[k]),
+                        ));
+                    }
+                    if !(min[k] + size[k]).is_finite() {
+                        return Err(invalid(
+                            format!("container.size[{k}]"),
+                            "the upper corner min + size overflows a finite number",
+                        ));
                     }
                 }
                 let smallest = size.iter().copied().fold(f64::INFINITY, f64::min);
@@ -697,11 +818,22 @@ impl Scene {
                 positive("container.radius", *radius)?;
                 positive("container.height", *height)?;
                 if base_center.iter().any(|x| !x.is_finite()) {
-                    return Err(invalid("container.base_center", "must be finite"));
+                    return Err(invalid(
+                        "container.base_center",
+                        format!("= {base_center:?} must be finite numbers"),
+                    ));
                 }
                 Ok(((2.0 * radius).min(*height), f64::INFINITY))
             }
+        }?;
+        let volume = self.container_volume();
+        if !(volume.is_finite() && volume > 0.0) {
+            return Err(invalid(
+                "container",
+                format!("its volume ({volume}) must be a finite number > 0"),
+            ));
         }
+        Ok(extents)
     }
 
     /// Checks the particle description; returns its nominal sizes (expected ones for a
@@ -806,6 +938,7 @@ impl Scene {
         let gap_bound =
             (6.0 * container / (std::f64::consts::PI * sizes.count)).cbrt() - sizes.d_min;
         let seeded_phi = sizes.volume * scale.powi(3) / container;
+        let equal_spheres = sizes.d_min == sizes.d_max && self.particles.ellipsoid.is_none();
         let mut final_diameter = sizes.d_max * scale;
         let mut at_true_size = scale == 1.0;
         let last = self.stages.len() - 1;
@@ -844,6 +977,15 @@ impl Scene {
             }
             if let Some(x) = u.packing_fraction {
                 fraction(&f("until.packing_fraction"), x)?;
+                if equal_spheres && x >= KEPLER_FRACTION {
+                    return Err(invalid(
+                        f("until.packing_fraction"),
+                        format!(
+                            "= {x} cannot be reached: equal spheres pack at most π/√18 ≈ \
+                             {KEPLER_FRACTION:.6} (Kepler); allowed range (0, {KEPLER_FRACTION:.6})"
+                        ),
+                    ));
+                }
                 if s.growth == GrowthKind::None {
                     return Err(invalid(
                         f("until.packing_fraction"),

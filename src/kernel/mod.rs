@@ -54,11 +54,13 @@
 //! from each centre to the contact point summed over the bodies that move (`σ` for a pair of
 //! spheres, `r` for a sphere against a wall: then `Z` is the wall pressure).
 
+mod checkpoint;
 mod local;
 mod stage;
 
+pub use checkpoint::{KernelSnapshot, SnapshotError};
 use local::{EventKind, LocalEvent, LocalList};
-pub use stage::{Limits, Progress, Stage, StageReport, StopReason, Until};
+pub use stage::{Limits, Progress, Stage, StageProgress, StageReport, StopReason, Until};
 
 use crate::boundary::{Boundary, WallId};
 use crate::queue::EventQueue;
@@ -68,7 +70,12 @@ use rand::Rng;
 use rand_distr::StandardNormal;
 
 /// A particle in delayed state: centre, velocity and rotational state valid at `time`.
-#[derive(Clone, Debug)]
+/// Serialisable (for checkpoints) when the shape and its rotational state are.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+#[serde(bound(
+    serialize = "S: serde::Serialize, S::Spin: serde::Serialize",
+    deserialize = "S: serde::de::DeserializeOwned, S::Spin: serde::de::DeserializeOwned"
+))]
 pub struct Particle<S: Collidable> {
     /// Centre at `time`.
     pub pos: Vec3,
@@ -122,7 +129,7 @@ impl Default for KernelConfig {
 }
 
 /// Counts of processed events, by kind.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct EventCounts {
     /// All processed events (collisions, wall contacts, neighbour-list updates).
     pub events: u64,
@@ -140,6 +147,9 @@ pub struct EventCounts {
     pub barriers: u64,
     /// Cell grid rebuilds.
     pub grid_rebuilds: u64,
+    /// Events whose predicted time was already past when they were processed (rounding in a
+    /// prediction; the event is processed at the current time). A numerical-health counter.
+    pub late_events: u64,
 }
 
 impl EventCounts {
@@ -154,6 +164,7 @@ impl EventCounts {
             repredictions: self.repredictions - before.repredictions,
             barriers: self.barriers - before.barriers,
             grid_rebuilds: self.grid_rebuilds - before.grid_rebuilds,
+            late_events: self.late_events - before.late_events,
         }
     }
 }
@@ -161,7 +172,7 @@ impl EventCounts {
 /// Largest neighbour-list skin the kernel adapts to. Thicker skins lengthen the lists (their
 /// memory grows with the cube of `1 + skin`) for little gain: in the φ = 0.5 fluid a fixed
 /// skin of 0.4 was as fast as any (BENCHMARKS.md, tuning).
-const MAX_SKIN: f64 = 0.5;
+pub const MAX_SKIN: f64 = 0.5;
 
 /// Which partners a prediction pass considers.
 #[derive(Clone, Copy)]
@@ -345,6 +356,16 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// For each particle of [`Edmd::particles`], its index in the input of [`Edmd::new`].
     pub fn original_indices(&self) -> &[u32] {
         &self.ids
+    }
+
+    /// Sets every particle's velocity to `velocity(id)`, `id` its index in the input of
+    /// [`Edmd::new`]. Between stages only (the kernel is synchronised there and the next
+    /// stage predicts every event afresh): scripted starts such as particles at rest or equal
+    /// speeds on a lattice.
+    pub fn set_velocities(&mut self, velocity: impl Fn(usize) -> Vec3) {
+        for (p, &id) in self.particles.iter_mut().zip(&self.ids) {
+            p.vel = velocity(id as usize);
+        }
     }
 
     /// The container.
@@ -765,7 +786,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     }
 
     /// Processes events up to the barrier. Returns `false` if `budget` ran out first (then
-    /// the kernel time is that of the last processed event).
+    /// the kernel time is that of the last processed event, and `budget.stopped` says why,
+    /// or is `None` when only the interval's own event allowance ran out).
     fn run_interval(&mut self, budget: &mut EventBudget) -> bool {
         loop {
             let Some((i, t)) = self.queue.peek() else {
@@ -777,6 +799,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             let (idx, event) = self.local[i]
                 .earliest()
                 .expect("a queued particle has events");
+            let late = t < self.time;
             self.time = self.time.max(t);
             match event.kind() {
                 EventKind::Collision {
@@ -796,6 +819,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 EventKind::NeighbourList => self.renew_neighbours(i),
             }
             self.counters.events += 1;
+            self.counters.late_events += u64::from(late);
             if !budget.spend(self.elapsed + self.time) {
                 return false;
             }
@@ -913,12 +937,32 @@ struct EventBudget {
     stall_epsilon: f64,
     since_check: u32,
     time_at_check: f64,
+    /// Consecutive checks at which the time had not advanced at all.
+    frozen_checks: u32,
+    /// Consecutive frozen checks that make a stall (see [`frozen_check_limit`]).
+    frozen_limit: u32,
+    /// Events the current barrier interval may still process before it ends early.
+    interval_events_left: u64,
     stopped: Option<StopReason>,
 }
 
 /// Events between two checks of the clock and of the stall criterion (paper 001: Δt < ε
 /// over 1000 events).
 const CHECK_EVERY: u32 = 1000;
+
+/// Events per particle without any advance of the time that make a stall. Simultaneous
+/// collisions legitimately take many events at one instant: spheres touching in rows
+/// exchange their velocities in a cascade of zero-time collisions (up to ℓ²/2 per row of
+/// ℓ spheres, about 30 per particle for rows of 8 along three axes); a rigid cluster (a row
+/// filling the space between two walls) does so forever.
+const FROZEN_EVENTS_PER_PARTICLE: u64 = 100;
+
+/// Consecutive frozen checks of [`CHECK_EVERY`] events before a stall, for `n` particles.
+fn frozen_check_limit(n: usize) -> u32 {
+    (FROZEN_EVENTS_PER_PARTICLE * n as u64)
+        .div_ceil(CHECK_EVERY as u64)
+        .clamp(1, u32::MAX as u64) as u32
+}
 
 impl EventBudget {
     #[inline]
@@ -928,13 +972,27 @@ impl EventBudget {
             self.stopped = Some(StopReason::EventLimit);
             return false;
         }
+        self.interval_events_left = self.interval_events_left.saturating_sub(1);
+        if self.interval_events_left == 0 {
+            return false; // an early barrier, not a stop
+        }
         self.since_check += 1;
         if self.since_check >= CHECK_EVERY {
             self.since_check = 0;
-            // Time that does not advance at all is a stall whatever ε is.
-            if now - self.time_at_check < self.stall_epsilon || now == self.time_at_check {
+            if self.stall_epsilon > 0.0 && now - self.time_at_check < self.stall_epsilon {
                 self.stopped = Some(StopReason::Stalled);
                 return false;
+            }
+            // Time that does not advance at all is a stall whatever ε is, once it has stood
+            // still for longer than simultaneous collisions can take.
+            if now == self.time_at_check {
+                self.frozen_checks += 1;
+                if self.frozen_checks >= self.frozen_limit {
+                    self.stopped = Some(StopReason::Stalled);
+                    return false;
+                }
+            } else {
+                self.frozen_checks = 0;
             }
             self.time_at_check = now;
             if self

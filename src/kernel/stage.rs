@@ -1,6 +1,6 @@
 //! Stages: one growth protocol run until a stop criterion.
 
-use super::{Edmd, EventBudget, EventCounts};
+use super::{frozen_check_limit, Edmd, EventBudget, EventCounts};
 use crate::boundary::Boundary;
 use crate::queue::EventQueue;
 use crate::shape::{Collidable, Growth};
@@ -58,7 +58,7 @@ pub struct Stage {
 }
 
 /// Why a stage stopped.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum StopReason {
     /// The requested packing fraction was reached.
@@ -69,7 +69,8 @@ pub enum StopReason {
     TimeReached,
     /// The requested number of collisions per particle was processed.
     CollisionsReached,
-    /// Simulated time stopped advancing (Δt < ε over 1000 events).
+    /// Simulated time stopped advancing (Δt < ε over 1000 events, or no advance at all over
+    /// 100 events per particle), or nothing moves and nothing grows.
     Stalled,
     /// The event limit was hit.
     EventLimit,
@@ -107,7 +108,7 @@ impl StopReason {
 }
 
 /// What a stage did.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct StageReport {
     /// Why it stopped.
     pub stop_reason: StopReason,
@@ -126,15 +127,18 @@ pub struct StageReport {
     pub reduced_pressure_stderr: Option<f64>,
 }
 
+/// Multiple of its planned events after which a barrier interval ends early.
+const EARLY_BARRIER_EVENTS: f64 = 16.0;
+
 /// Per-interval pressure record: virial and `Σ m v² · Δt`.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
 struct PressureBlock {
     virial: f64,
     kinetic_time: f64,
 }
 
-/// State of a running stage, reported at every time barrier to the observer of
-/// [`Edmd::run_stage_observed`].
+/// State of a running stage, as the observer of [`Edmd::run_stage_observed`] sees it at a
+/// time barrier ([`StageProgress::observed`]).
 #[derive(Clone, Debug)]
 pub struct Progress {
     /// Simulated time of the stage so far.
@@ -152,19 +156,77 @@ pub struct Progress {
     pub wall_seconds: f64,
 }
 
+/// Where a stage stands between two barrier intervals: everything the stage loop carries
+/// from one interval to the next besides the kernel itself. [`Edmd::continue_stage`] resumes
+/// from it exactly, so a checkpoint stores it (`crate::kernel::checkpoint`).
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct StageProgress {
+    /// Kernel counters when the stage started.
+    counts_before: EventCounts,
+    /// Simulated stage time at which the goal is met exactly, if the goal is a time or a
+    /// packing fraction.
+    end_time: Option<f64>,
+    /// The goal was found unreachable when the stage started.
+    unreachable: bool,
+    /// Collision count at which the stage's collision goal is met.
+    collisions_goal: Option<u64>,
+    /// Simulated time of the stage so far.
+    stage_time: f64,
+    /// Reduced pressure of the last interval (NaN before the first).
+    last_z: f64,
+    /// Pressure record of every interval so far.
+    blocks: Vec<PressureBlock>,
+    /// Events the stage may still process.
+    events_left: u64,
+    /// Events since the last stall and clock check.
+    since_check: u32,
+    /// Simulated time at the last stall check.
+    time_at_check: f64,
+    /// Consecutive stall checks without any advance of the time.
+    frozen_checks: u32,
+    /// Wall-clock seconds spent on the stage before the current continuation.
+    wall_seconds: f64,
+}
+
+impl StageProgress {
+    /// What an observer sees of this stage in `kernel` (synchronised at a barrier).
+    pub fn observed<S: Collidable, B: Boundary, Q: EventQueue>(
+        &self,
+        kernel: &Edmd<S, B, Q>,
+    ) -> Progress {
+        Progress {
+            stage_time: self.stage_time,
+            goal_time: self.end_time,
+            packing_fraction: kernel.packing_fraction_at(0.0),
+            reduced_pressure: self.last_z,
+            counts: kernel.counters.since(&self.counts_before),
+            wall_seconds: self.wall_seconds,
+        }
+    }
+}
+
 impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// Runs one stage from a synchronised state and leaves the kernel synchronised.
     pub fn run_stage(&mut self, stage: &Stage) -> StageReport {
         self.run_stage_observed(stage, &mut |_| {})
     }
 
-    /// [`Edmd::run_stage`], telling `observe` the [`Progress`] at every time barrier.
+    /// [`Edmd::run_stage`], telling `observe` the [`Progress`] at the start of the stage
+    /// and at every time barrier after which it goes on (its end is the [`StageReport`]).
     pub fn run_stage_observed(
         &mut self,
         stage: &Stage,
         observe: &mut dyn FnMut(&Progress),
     ) -> StageReport {
-        let started = std::time::Instant::now();
+        let progress = self.start_stage(stage);
+        self.continue_stage(stage, progress, &mut |kernel, p| {
+            observe(&p.observed(kernel))
+        })
+    }
+
+    /// Starts a stage: sets the growth, rescales the velocities if the stage has a
+    /// thermostat, and places its goals. [`Edmd::continue_stage`] then runs it.
+    pub fn start_stage(&mut self, stage: &Stage) -> StageProgress {
         let counts_before = self.counters;
         let n = self.particles.len().max(1) as f64;
         for p in &mut self.particles {
@@ -176,40 +238,75 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         }
         // Simulated time at which the goal is met exactly, if the goal is a time.
         let mut end_time = stage.until.time;
-        let mut report_reason = None;
+        let mut unreachable = false;
         if let Some(target) = stage.until.packing_fraction {
             match self.time_to_packing_fraction(target, growing) {
                 Some(t) => end_time = Some(end_time.map_or(t, |e: f64| e.min(t))),
-                None => report_reason = Some(StopReason::Unreachable),
+                None => unreachable = true,
             }
         }
-        let mut budget = EventBudget {
-            events_left: stage.limits.events,
-            deadline: stage
-                .limits
-                .wall_seconds
-                .map(|s| started + std::time::Duration::from_secs_f64(s)),
-            stall_epsilon: stage.limits.stall_epsilon,
-            since_check: 0,
-            time_at_check: self.elapsed,
-            stopped: None,
-        };
-        let collisions_goal = stage
-            .until
-            .collisions_per_particle
-            .map(|c| counts_before.collisions + (c * n).ceil() as u64);
-        let mut stage_time = 0.0;
-        let mut last_z = f64::NAN;
-        let mut blocks: Vec<PressureBlock> = Vec::new();
-        let target_events = self.config.events_per_particle_per_interval * n;
         if self.interval <= 0.0 {
             self.interval = self.initial_interval();
         }
+        StageProgress {
+            counts_before,
+            end_time,
+            unreachable,
+            collisions_goal: stage
+                .until
+                .collisions_per_particle
+                .map(|c| counts_before.collisions + (c * n).ceil() as u64),
+            stage_time: 0.0,
+            last_z: f64::NAN,
+            blocks: Vec::new(),
+            events_left: stage.limits.events,
+            since_check: 0,
+            time_at_check: self.elapsed,
+            frozen_checks: 0,
+            wall_seconds: 0.0,
+        }
+    }
+
+    /// Runs a started stage from `progress` to its end and leaves the kernel synchronised.
+    /// `at_barrier` is shown the kernel and the progress at every barrier, before the next
+    /// interval begins: the kernel is then synchronised at kernel time 0, and this state is
+    /// all a continuation needs (checkpoints are written there).
+    pub fn continue_stage(
+        &mut self,
+        stage: &Stage,
+        mut progress: StageProgress,
+        at_barrier: &mut dyn FnMut(&Self, &StageProgress),
+    ) -> StageReport {
+        let started = std::time::Instant::now();
+        let n = self.particles.len().max(1) as f64;
+        let growing = stage.growth != Growth::None;
+        let mut report_reason = progress.unreachable.then_some(StopReason::Unreachable);
+        let mut budget = EventBudget {
+            events_left: progress.events_left,
+            deadline: stage.limits.wall_seconds.map(|s| {
+                started + std::time::Duration::from_secs_f64((s - progress.wall_seconds).max(0.0))
+            }),
+            stall_epsilon: stage.limits.stall_epsilon,
+            since_check: progress.since_check,
+            time_at_check: progress.time_at_check,
+            frozen_checks: progress.frozen_checks,
+            frozen_limit: frozen_check_limit(self.particles.len()),
+            interval_events_left: 0,
+            stopped: None,
+        };
+        let wall_before = progress.wall_seconds;
+        let target_events = self.config.events_per_particle_per_interval * n;
         let mut interval = self.interval;
         while report_reason.is_none() {
+            progress.events_left = budget.events_left;
+            progress.since_check = budget.since_check;
+            progress.time_at_check = budget.time_at_check;
+            progress.frozen_checks = budget.frozen_checks;
+            progress.wall_seconds = wall_before + started.elapsed().as_secs_f64();
+            at_barrier(self, &progress);
             let mut this = interval;
-            if let Some(end) = end_time {
-                this = this.min((end - stage_time).max(0.0));
+            if let Some(end) = progress.end_time {
+                this = this.min((end - progress.stage_time).max(0.0));
             }
             let events_before = self.counters.events;
             let (collisions_before, updates_before) = (
@@ -217,6 +314,10 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 self.counters.neighbour_list_updates,
             );
             self.begin_interval(this);
+            // An interval that takes far more events than planned ends early: the approach
+            // to jamming inside one interval (the collision rate diverges there) would
+            // otherwise never reach the barrier where the pressure is measured.
+            budget.interval_events_left = (EARLY_BARRIER_EVENTS * target_events).ceil() as u64;
             let completed = self.run_interval(&mut budget);
             let t_end = if completed {
                 self.barrier_time
@@ -233,32 +334,24 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             let kinetic_end = self.kinetic_twice_at(t_end);
             let kinetic_time = 0.5 * (self.kinetic_start + kinetic_end) * t_end;
             if t_end > 0.0 && kinetic_time > 0.0 {
-                last_z = 1.0 + virial / kinetic_time;
-                blocks.push(PressureBlock {
+                progress.last_z = 1.0 + virial / kinetic_time;
+                progress.blocks.push(PressureBlock {
                     virial,
                     kinetic_time,
                 });
             }
             self.synchronise_and_rebase(t_end);
             self.counters.barriers += 1;
-            stage_time += t_end;
-            observe(&Progress {
-                stage_time,
-                goal_time: end_time,
-                packing_fraction: self.packing_fraction_at(0.0),
-                reduced_pressure: last_z,
-                counts: self.counters.since(&counts_before),
-                wall_seconds: started.elapsed().as_secs_f64(),
-            });
+            progress.stage_time += t_end;
             if stage.thermostat && growing {
                 self.rescale_temperature();
             }
-            if !completed {
+            if budget.stopped.is_some() {
                 report_reason = budget.stopped;
                 break;
             }
-            if let Some(end) = end_time {
-                if stage_time >= end {
+            if let Some(end) = progress.end_time {
+                if progress.stage_time >= end {
                     report_reason = Some(if stage.until.time == Some(end) {
                         StopReason::TimeReached
                     } else {
@@ -268,13 +361,21 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 }
             }
             if let Some(z) = stage.until.reduced_pressure {
-                if last_z >= z {
+                if progress.last_z >= z {
                     report_reason = Some(StopReason::Jammed);
                     break;
                 }
             }
-            if collisions_goal.is_some_and(|goal| self.counters.collisions >= goal) {
+            if progress
+                .collisions_goal
+                .is_some_and(|goal| self.counters.collisions >= goal)
+            {
                 report_reason = Some(StopReason::CollisionsReached);
+                break;
+            }
+            if events == 0 && !growing && kinetic_end == 0.0 {
+                // Nothing moves and nothing grows: no event will ever happen.
+                report_reason = Some(StopReason::Stalled);
                 break;
             }
             // Adapt the interval to hold about `target_events` events.
@@ -289,16 +390,16 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             self.interval = interval;
         }
         let (reduced_pressure, reduced_pressure_stderr) = if growing {
-            (last_z, None)
+            (progress.last_z, None)
         } else {
-            block_average(&blocks)
+            block_average(&progress.blocks)
         };
-        let counts = self.counters.since(&counts_before);
+        let counts = self.counters.since(&progress.counts_before);
         StageReport {
             stop_reason: report_reason.expect("a stage ends with a reason"),
             counts,
-            simulated_time: stage_time,
-            wall_seconds: started.elapsed().as_secs_f64(),
+            simulated_time: progress.stage_time,
+            wall_seconds: wall_before + started.elapsed().as_secs_f64(),
             packing_fraction: self.packing_fraction_at(0.0),
             reduced_pressure,
             reduced_pressure_stderr,
@@ -307,11 +408,21 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
 
     /// A first barrier interval: a fraction of the time a particle needs to cross the
     /// smallest gap scale (the interval adapts from there).
+    ///
+    /// Particles at rest that grow close their gaps at twice their growth rate, so that rate
+    /// sets the scale when it exceeds the thermal speed (without it a start at rest would put
+    /// the whole run into one interval).
     fn initial_interval(&self) -> f64 {
         let n = self.particles.len().max(1) as f64;
-        let v_rms = (self.kinetic_twice() / n).sqrt().max(1e-300);
+        let v_rms = (self.kinetic_twice() / n).sqrt();
+        let closing = self
+            .particles
+            .iter()
+            .map(|p| 2.0 * p.shape.bounding_growth_rate())
+            .fold(v_rms, f64::max)
+            .max(1e-300);
         let d = self.max_diameter(0.0).max(1e-300);
-        0.05 * d / v_rms
+        0.05 * d / closing
     }
 
     /// Kernel time at which the packing fraction reaches `target` under the current growth,

@@ -4,6 +4,7 @@
 
 use super::{
     finish, kernel_config, run_stages, Placed, RunError, RunOutcome, RunStats, SceneContainer,
+    StagesFrom,
 };
 use crate::boundary::{Boundary, PeriodicBox, WalledBox};
 use crate::io::packing::ParticleRecord;
@@ -23,17 +24,13 @@ pub(super) fn run_ellipsoid_scene(
     on_stage: &mut dyn FnMut(usize, &StageReport),
     on_progress: &mut dyn FnMut(usize, &Progress),
 ) -> Result<RunOutcome, RunError> {
-    let ContainerSpec::Box {
-        min,
-        size,
-        periodic,
-    } = &scene.container
-    else {
+    let ContainerSpec::Box { size, periodic, .. } = &scene.container else {
         return Err(RunError::Unsupported(
             "ellipsoids need a box container (container.type = \"box\")".into(),
         ));
     };
-    let min = Vec3::from(*min);
+    // Relative to the box's corner, as every kernel (`super::container_origin`).
+    let min = Vec3::zeros();
     let len = Vec3::from(*size);
     if periodic.iter().all(|&p| p) {
         dispatch_queue(scene, PeriodicBox { min, len }, on_stage, on_progress)
@@ -149,12 +146,15 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
         kernel_config(scene),
         &mut rng,
     );
+    // No checkpoints: they are written for sphere kernels only.
     let done = run_stages(
         scene,
         &mut kernel,
         full_size_fraction,
+        StagesFrom::start(),
         on_stage,
         on_progress,
+        &mut |_, _, _, _| {},
     )?;
     // Back to the order of the seeding, which the kernel permutes for cache locality.
     let mut order: Vec<u32> = vec![0; kernel.particles().len()];

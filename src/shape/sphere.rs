@@ -5,7 +5,7 @@ use std::f64::consts::PI;
 
 /// A sphere of radius `r(t) = r0 + g·t` (paper 001, Eq. 20). Rotation-free: a sphere-only
 /// scene carries no orientation state at all.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Sphere {
     /// Radius at kernel time 0 (length).
     pub r0: f64,

@@ -21,7 +21,7 @@ use crate::shape::Vec3;
 const NONE: u32 = u32::MAX;
 
 /// The cells of one level.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 struct Level {
     /// Actual cell widths per axis (≥ the requested width).
     width: Vec3,
@@ -31,7 +31,8 @@ struct Level {
 }
 
 /// A multi-level uniform cell grid over an axis-aligned box, periodic or bounded per axis.
-#[derive(Clone, Debug)]
+/// Serialisable so that a kernel checkpoint restores the exact member order of every cell.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct CellGrid {
     origin: Vec3,
     levels: Vec<Level>,

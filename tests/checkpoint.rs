@@ -1,0 +1,332 @@
+//! Checkpoint and resume through the real binary: a run killed with SIGKILL mid-way and
+//! resumed from its last checkpoint writes the same particles, bit for bit, as a run that
+//! was never interrupted; writing checkpoints does not change a run.
+
+use densepack::io::packing::Packing;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn densepack(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_densepack"))
+        .args(args)
+        .output()
+        .expect("densepack runs")
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("densepack-ckpt-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// A few seconds of work in release mode: two sizes (ratio 2, so the cell grid has two
+/// levels), walls on z, growth to a packing fraction, then jamming.
+const SCENE: &str = r#"seed = 2024
+[container]
+type = "box"
+size = [13.0, 13.0, 13.0]
+periodic = [true, true, false]
+[particles]
+components = [{ count = 1070, diameter = 1.0 }, { count = 135, diameter = 2.0 }]
+packing_fraction = 0.3
+[[stage]]
+growth = "relative"
+rate = 0.1
+until = { packing_fraction = 0.5 }
+[[stage]]
+growth = "relative"
+rate = 0.05
+until = { reduced_pressure = 1e12 }
+"#;
+
+fn run_ok(args: &[&str]) -> Output {
+    let out = densepack(args);
+    assert!(
+        out.status.success(),
+        "densepack {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+fn assert_same_packing(a: &Path, b: &Path) {
+    let (a, b) = (Packing::read(a).unwrap(), Packing::read(b).unwrap());
+    assert_eq!(a.particles.len(), b.particles.len());
+    // Bit for bit: PartialEq on f64 would also accept -0.0 == 0.0.
+    let bits = |p: &Packing| -> Vec<u64> {
+        p.particles
+            .iter()
+            .flat_map(|r| match r {
+                densepack::io::packing::ParticleRecord::Sphere { center, radius } => {
+                    [center[0], center[1], center[2], *radius].map(f64::to_bits)
+                }
+                other => panic!("a sphere scene wrote {other:?}"),
+            })
+            .collect()
+    };
+    assert!(bits(&a) == bits(&b), "the particles differ");
+    assert_eq!(a.stats.events, b.stats.events);
+    assert_eq!(a.stats.collisions, b.stats.collisions);
+    assert_eq!(
+        a.stats.reduced_pressure.map(f64::to_bits),
+        b.stats.reduced_pressure.map(f64::to_bits)
+    );
+    assert_eq!(a.stats.stop_reason, b.stats.stop_reason);
+}
+
+#[test]
+fn a_run_killed_mid_way_resumes_to_the_same_packing() {
+    let dir = temp_dir("kill");
+    let scene = dir.join("scene.toml");
+    std::fs::write(&scene, SCENE).unwrap();
+    let scene = scene.to_str().unwrap();
+    let whole = dir.join("whole.json");
+    let started = Instant::now();
+    run_ok(&["run", scene, "--out", whole.to_str().unwrap(), "--quiet"]);
+    let uninterrupted = started.elapsed();
+    eprintln!("uninterrupted run: {uninterrupted:.2?}");
+
+    // Writing checkpoints (at every barrier here) does not change the run.
+    let checked = dir.join("checked.json");
+    let every_barrier = dir.join("every.ckpt");
+    run_ok(&[
+        "run",
+        scene,
+        "--out",
+        checked.to_str().unwrap(),
+        "--quiet",
+        "--checkpoint",
+        every_barrier.to_str().unwrap(),
+        "--checkpoint-every",
+        "0",
+    ]);
+    assert_same_packing(&whole, &checked);
+    eprintln!(
+        "run with a checkpoint at every barrier: {:.2?}",
+        started.elapsed() - uninterrupted
+    );
+
+    // Kill a checkpointing run with SIGKILL once it has written a checkpoint and is well
+    // into its work, then resume.
+    let ckpt = dir.join("run.ckpt");
+    let killed_out = dir.join("killed.json");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_densepack"))
+        .args([
+            "run",
+            scene,
+            "--out",
+            killed_out.to_str().unwrap(),
+            "--quiet",
+            "--checkpoint",
+            ckpt.to_str().unwrap(),
+            "--checkpoint-every",
+            "0.2",
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let kill_after = uninterrupted.mul_f64(0.6);
+    let spawned = Instant::now();
+    while !(ckpt.exists() && spawned.elapsed() >= kill_after) {
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the run ended before it could be killed"
+        );
+        assert!(
+            spawned.elapsed() < uninterrupted * 10,
+            "no checkpoint written"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child.kill().unwrap(); // SIGKILL on Unix
+    let status = child.wait().unwrap();
+    assert!(!status.success(), "the run was killed, not finished");
+    assert!(!killed_out.exists(), "a killed run wrote no packing");
+
+    let resumed = dir.join("resumed.json");
+    let out = run_ok(&[
+        "run",
+        "--resume",
+        ckpt.to_str().unwrap(),
+        "--out",
+        resumed.to_str().unwrap(),
+    ]);
+    eprintln!("{}", String::from_utf8_lossy(&out.stderr));
+    assert_same_packing(&whole, &resumed);
+    let verify = densepack(&["verify", resumed.to_str().unwrap()]);
+    assert!(verify.status.success());
+
+    // A checkpoint of the last stage's first barriers also resumes exactly (the file
+    // written at every barrier holds the run's last barrier).
+    let from_last = dir.join("from_last.json");
+    run_ok(&[
+        "run",
+        "--resume",
+        every_barrier.to_str().unwrap(),
+        "--out",
+        from_last.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_same_packing(&whole, &from_last);
+}
+
+#[test]
+fn damaged_checkpoints_are_refused_with_exit_code_2() {
+    let dir = temp_dir("damaged");
+    let scene = dir.join("scene.toml");
+    std::fs::write(
+        &scene,
+        "seed = 3\n[container]\ntype = \"box\"\nsize = [6.0, 6.0, 6.0]\nperiodic = [true, true, true]\n\
+         [particles]\ncount = 50\ndiameter = 1.0\n\
+         [[stage]]\ngrowth = \"none\"\nuntil = { collisions_per_particle = 20 }\n",
+    )
+    .unwrap();
+    let ckpt = dir.join("good.ckpt");
+    let out = dir.join("out.json");
+    run_ok(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+        "--checkpoint",
+        ckpt.to_str().unwrap(),
+        "--checkpoint-every",
+        "0",
+    ]);
+    let good = std::fs::read(&ckpt).unwrap();
+    let previous = std::fs::read(&out).unwrap();
+    let cases: Vec<(&str, Vec<u8>, &str)> = vec![
+        ("empty", Vec::new(), "not a densepack checkpoint"),
+        (
+            "a scene file",
+            b"seed = 1\n".to_vec(),
+            "not a densepack checkpoint",
+        ),
+        (
+            "truncated header",
+            good[..good.len().min(40)].to_vec(),
+            "damaged checkpoint header",
+        ),
+        (
+            "truncated kernel record",
+            good[..good.len() - 100].to_vec(),
+            "damaged kernel record",
+        ),
+        (
+            "trailing bytes",
+            [good.as_slice(), b"extra"].concat(),
+            "unexpected bytes",
+        ),
+    ];
+    for (name, bytes, needle) in cases {
+        let bad = dir.join("bad.ckpt");
+        std::fs::write(&bad, &bytes).unwrap();
+        let run = densepack(&[
+            "run",
+            "--resume",
+            bad.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(2), "{name}: {stderr}");
+        assert!(
+            stderr.contains(needle),
+            "{name}: {stderr:?} lacks {needle:?}"
+        );
+        assert_eq!(
+            std::fs::read(&out).unwrap(),
+            previous,
+            "{name}: output changed"
+        );
+    }
+    // A scene and --resume together is a usage error.
+    let run = densepack(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--resume",
+        ckpt.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(run.status.code(), Some(2));
+}
+
+/// A graded scene in a walled box (offset from the origin): growth to the true sizes, then a
+/// 1 mm gap stage whose walls step back (wall_gap 0.2 < Δd/2).
+const GAP_SCENE: &str = r#"seed = 11
+mass = "volume"
+[container]
+type = "box"
+min = [100.0, -50.0, 7.0]
+size = [40.0, 40.0, 40.0]
+periodic = [false, false, true]
+[particles]
+grading = { kind = "din", name = "A16" }
+mixture_fraction = 0.45
+d_min = 2.0
+[[stage]]
+growth = "relative"
+rate = 0.05
+until = { full_size = true }
+[[stage]]
+growth = "absolute"
+rate = 0.02
+until = { gap = 1.0 }
+wall_gap = 0.2
+"#;
+
+#[test]
+fn a_gap_stage_resumes_to_the_same_gap_and_particles() {
+    use densepack::io::checkpoint::CheckpointFile;
+    use densepack::io::scene::Scene;
+    use densepack::run::{resume_run, run_scene, run_scene_checkpointed, CheckpointPlan};
+    let dir = temp_dir("gap");
+    let scene = Scene::from_toml(GAP_SCENE).unwrap();
+    let straight = run_scene(&scene, &mut |_, _| {}).unwrap().packing;
+    // A checkpoint at every barrier: the file left is the last barrier of the gap stage.
+    let plan = CheckpointPlan {
+        path: dir.join("gap.ckpt"),
+        every: Duration::ZERO,
+    };
+    let checkpointed =
+        run_scene_checkpointed(GAP_SCENE, &scene, &plan, &mut |_, _| {}, &mut |_, _| {})
+            .unwrap()
+            .packing;
+    let file = CheckpointFile::read(&plan.path).unwrap();
+    assert_eq!(
+        file.header.stage, 1,
+        "the last checkpoint is in the gap stage"
+    );
+    let mut finished = Vec::new();
+    let resumed = resume_run(&file, None, &mut |k, _| finished.push(k), &mut |_, _| {})
+        .unwrap()
+        .packing;
+    assert_eq!(finished, [1], "only the gap stage is left to finish");
+    for p in [&checkpointed, &resumed] {
+        assert_eq!(p.particles, straight.particles);
+        assert_eq!(p.min_gap.to_bits(), straight.min_gap.to_bits());
+        assert_eq!(
+            p.wall_gap.map(f64::to_bits),
+            straight.wall_gap.map(f64::to_bits)
+        );
+        assert_eq!(p.container, straight.container);
+    }
+    // The gap asked for (rounding only), and the walls' share of it: Δd/2 less the 0.3 they
+    // stepped back.
+    assert!(
+        (straight.min_gap - 1.0).abs() < 1e-9,
+        "{}",
+        straight.min_gap
+    );
+    assert!(
+        straight.wall_gap.is_some_and(|w| (w - 0.2).abs() < 1e-9),
+        "{:?}",
+        straight.wall_gap
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

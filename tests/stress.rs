@@ -1,0 +1,615 @@
+//! Numerical stress of the sphere EDMD kernel: runs to jamming and long runs near it, wide
+//! size ratios, degenerate starts, scale covariance and far-off coordinates.
+//!
+//! Every case is watched at every time barrier: the kernel is synchronised there, and its
+//! particles are handed to the independent check (`densepack::verify`, which shares no code
+//! with the kernel) — so "no overlap" holds for the whole run, not only for the final
+//! packing. Each case prints a row: stop reason, packing fraction, the smallest pair gap
+//! and wall gap ever seen (relative; negative = overlap within the check's 1e-9 tolerance),
+//! and the kernel's counters, among them `late` (events whose predicted time had already
+//! passed: rounding in a prediction) and `repred` (local lists predicted afresh).
+//!
+//! Sizes: reduced by default (the whole target takes about a minute in release mode, run by
+//! CI); `DENSEPACK_STRESS=full cargo test --release --test stress -- --nocapture` runs the
+//! full sizes (10⁴ spheres, 10⁷ events near jamming, size ratio 100; tens of minutes).
+//!
+//! Ellipsoids and cylinders plug in here as further `Edmd<S, …>` kernels driven by
+//! [`watch_stage`], once their `Collidable` implementations land.
+
+mod common;
+
+use densepack::boundary::{Boundary, PeriodicBox, WalledBox};
+use densepack::io::packing::{Packing, PackingStats, ParticleRecord, FORMAT};
+use densepack::kernel::{Edmd, EventCounts, KernelConfig, Limits, Stage, StopReason, Until};
+use densepack::protocol::rsa::rsa_spheres;
+use densepack::queue::CalendarQueue;
+use densepack::run::SceneContainer;
+use densepack::shape::{Growth, Sphere, Vec3};
+use densepack::verify::verify;
+use rand::SeedableRng;
+use rand_xoshiro::Xoshiro256PlusPlus;
+
+type Kernel<B> = Edmd<Sphere, B, CalendarQueue>;
+
+fn full() -> bool {
+    std::env::var("DENSEPACK_STRESS").is_ok_and(|v| v == "full")
+}
+
+/// Reduced or full size.
+fn size(reduced: usize, full_size: usize) -> usize {
+    if full() {
+        full_size
+    } else {
+        reduced
+    }
+}
+
+/// What a watched run saw.
+#[derive(Debug, Default)]
+struct Watch {
+    /// Barriers checked.
+    checks: usize,
+    /// Smallest `|c_i − c_j| / (r_i + r_j) − 1` ever seen.
+    min_pair_gap: f64,
+    /// Smallest particle–wall gap ever seen, divided by the smallest radius.
+    min_wall_gap: f64,
+    /// Violations the independent check reported, over all barriers.
+    violations: usize,
+    /// First violation message.
+    first_violation: Option<String>,
+    /// Packing fraction at every barrier.
+    trajectory: Vec<f64>,
+}
+
+impl Watch {
+    fn new() -> Self {
+        Self {
+            min_pair_gap: f64::INFINITY,
+            min_wall_gap: f64::INFINITY,
+            ..Self::default()
+        }
+    }
+
+    /// Checks the synchronised kernel with the independent verification.
+    fn check<B: Boundary + SceneContainer>(&mut self, kernel: &Kernel<B>) {
+        let packing = packing_of(kernel);
+        let report = verify(&packing);
+        self.checks += 1;
+        if let Some(g) = report.min_pair_gap_relative {
+            self.min_pair_gap = self.min_pair_gap.min(g);
+        }
+        if let Some(g) = report.min_wall_gap {
+            let r_min = kernel
+                .particles()
+                .iter()
+                .map(|p| p.shape.radius(0.0))
+                .fold(f64::INFINITY, f64::min);
+            self.min_wall_gap = self.min_wall_gap.min(g / r_min);
+        }
+        self.violations += report.violation_count;
+        if self.first_violation.is_none() {
+            self.first_violation = report.violations.first().cloned();
+        }
+        self.trajectory.push(report.packing_fraction);
+    }
+}
+
+fn packing_of<B: Boundary + SceneContainer>(kernel: &Kernel<B>) -> Packing {
+    Packing {
+        format: FORMAT.into(),
+        version: 1,
+        container: kernel.boundary().record(),
+        particles: kernel
+            .particles()
+            .iter()
+            .map(|p| ParticleRecord::Sphere {
+                center: p.pos.into(),
+                radius: p.shape.radius(0.0),
+            })
+            .collect(),
+        min_gap: 0.0,
+        wall_gap: None,
+        seed: 0,
+        stats: PackingStats {
+            packing_fraction: 0.0,
+            reduced_pressure: None,
+            events: 0,
+            collisions: 0,
+            wall_seconds: 0.0,
+            stop_reason: String::new(),
+            extra: Default::default(),
+        },
+        provenance: None,
+    }
+}
+
+/// Runs a stage, checking the kernel at every barrier and at the end.
+fn watch_stage<B: Boundary + SceneContainer>(
+    kernel: &mut Kernel<B>,
+    stage: &Stage,
+    watch: &mut Watch,
+) -> StopReason {
+    let progress = kernel.start_stage(stage);
+    let report = kernel.continue_stage(stage, progress, &mut |k, _| watch.check(k));
+    watch.check(kernel);
+    report.stop_reason
+}
+
+/// One row of the table.
+struct Row {
+    name: String,
+    n: usize,
+    stops: Vec<StopReason>,
+    phi: f64,
+    seconds: f64,
+    watch: Watch,
+    counts: EventCounts,
+}
+
+fn header() {
+    eprintln!(
+        "{:<34} {:>6} {:>9} {:>10} {:>10} {:>6} {:>11} {:>11} {:>9} {:>7} {:>7} {:>6} {:>6} {:>7} {:>6}  stops",
+        "case", "N", "phi", "min gap", "min wall", "checks", "events", "collisions", "walls",
+        "nl upd", "stale", "repred", "late", "barrier", "s"
+    );
+}
+
+impl Row {
+    fn print(&self) {
+        let c = &self.counts;
+        let stops: Vec<&str> = self.stops.iter().map(|s| s.as_str()).collect();
+        eprintln!(
+            "{:<34} {:>6} {:>9.6} {:>10.2e} {:>10.2e} {:>6} {:>11} {:>11} {:>9} {:>7} {:>7} {:>6} {:>6} {:>7} {:>6.1}  {}",
+            self.name,
+            self.n,
+            self.phi,
+            self.watch.min_pair_gap,
+            self.watch.min_wall_gap,
+            self.watch.checks,
+            c.events,
+            c.collisions,
+            c.wall_collisions,
+            c.neighbour_list_updates,
+            c.stale,
+            c.repredictions,
+            c.late_events,
+            c.barriers,
+            self.seconds,
+            stops.join(",")
+        );
+    }
+
+    /// The independent check never found an overlap or a sphere outside the container.
+    fn assert_clean(&self) {
+        assert_eq!(
+            self.watch.violations, 0,
+            "{}: {} violations, first: {:?}",
+            self.name, self.watch.violations, self.watch.first_violation
+        );
+        assert!(self.watch.checks > 0);
+    }
+}
+
+/// Runs `stages` on a kernel and returns the row.
+fn run_case<B: Boundary + SceneContainer>(
+    name: &str,
+    mut kernel: Kernel<B>,
+    stages: &[Stage],
+) -> (Row, Kernel<B>) {
+    let started = std::time::Instant::now();
+    let mut watch = Watch::new();
+    watch.check(&kernel);
+    let stops = stages
+        .iter()
+        .map(|s| watch_stage(&mut kernel, s, &mut watch))
+        .collect();
+    let row = Row {
+        name: name.into(),
+        n: kernel.particles().len(),
+        stops,
+        phi: kernel.packing_fraction_at(0.0),
+        seconds: started.elapsed().as_secs_f64(),
+        watch,
+        counts: kernel.counters(),
+    };
+    row.print();
+    row.assert_clean();
+    (row, kernel)
+}
+
+/// Spheres of the given diameters seeded by RSA, Maxwell–Boltzmann velocities at `kT`.
+fn seeded<B: Boundary>(boundary: B, diameters: &[f64], seed: u64, kt: f64) -> Kernel<B> {
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+    let radii: Vec<f64> = diameters.iter().map(|d| 0.5 * d).collect();
+    let centres = rsa_spheres(&boundary, &radii, 0.0, 0.0, 1_000_000, &mut rng).expect("RSA seeds");
+    let shapes = radii.iter().map(|&r| Sphere::new(r)).collect();
+    let config = KernelConfig {
+        temperature: kt,
+        ..KernelConfig::default()
+    };
+    Edmd::new(centres, shapes, boundary, config, &mut rng)
+}
+
+/// Placed spheres (no RSA), Maxwell–Boltzmann velocities at kT = 1.
+fn placed<B: Boundary>(boundary: B, centres: Vec<Vec3>, diameter: f64, seed: u64) -> Kernel<B> {
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+    let shapes = vec![Sphere::new(0.5 * diameter); centres.len()];
+    Edmd::new(centres, shapes, boundary, KernelConfig::default(), &mut rng)
+}
+
+/// Equal diameters giving packing fraction `phi` for `n` spheres in volume `volume`.
+fn diameter_for(n: usize, phi: f64, volume: f64) -> f64 {
+    (6.0 * phi * volume / (std::f64::consts::PI * n as f64)).cbrt()
+}
+
+fn cube(edge: f64) -> PeriodicBox {
+    PeriodicBox {
+        min: Vec3::zeros(),
+        len: Vec3::repeat(edge),
+    }
+}
+
+fn walled_cube(min: f64, edge: f64) -> WalledBox {
+    WalledBox {
+        min: Vec3::repeat(min),
+        max: Vec3::repeat(min + edge),
+        periodic: [false; 3],
+    }
+}
+
+fn grow_to_jamming(rate: f64) -> Stage {
+    Stage {
+        growth: Growth::Relative(rate),
+        until: Until {
+            reduced_pressure: Some(1e12),
+            ..Until::default()
+        },
+        limits: Limits {
+            events: 2_000_000_000,
+            ..Limits::default()
+        },
+        thermostat: true,
+    }
+}
+
+fn equilibrate(collisions_per_particle: f64) -> Stage {
+    Stage {
+        growth: Growth::None,
+        until: Until {
+            collisions_per_particle: Some(collisions_per_particle),
+            ..Until::default()
+        },
+        limits: Limits::default(),
+        thermostat: false,
+    }
+}
+
+fn jam_row<B: Boundary + SceneContainer>(
+    name: &str,
+    kernel: Kernel<B>,
+    rattle: f64,
+    jam_from: f64,
+) -> Row {
+    let (row, _) = run_case(name, kernel, &[grow_to_jamming(0.05), equilibrate(rattle)]);
+    assert_eq!(row.stops[0], StopReason::Jammed, "{name}");
+    assert_eq!(row.stops[1], StopReason::CollisionsReached, "{name}");
+    assert!(
+        row.phi > jam_from && row.phi < 0.74049,
+        "{name}: jammed at φ = {}",
+        row.phi
+    );
+    row
+}
+
+/// Equal spheres, periodic and walled: grown to Z = 10¹², then run without growth at that
+/// pressure (rattling in cages of relative width ~10⁻¹²) for many collisions per particle.
+#[test]
+fn jamming_and_long_runs_near_jamming_equal_spheres() {
+    header();
+    let n = size(1000, 10_000);
+    let rattle = if full() { 1000.0 } else { 150.0 };
+    let edge = 12.0 * (n as f64 / 1000.0).cbrt();
+    let d = diameter_for(n, 0.3, edge.powi(3));
+    let periodic = seeded(cube(edge), &vec![d; n], 1, 1.0);
+    jam_row("jam + rattle, periodic, equal", periodic, rattle, 0.62);
+    let walled = seeded(walled_cube(0.0, edge), &vec![d; n], 2, 1.0);
+    // Walls order the spheres next to them: a walled packing jams lower.
+    jam_row("jam + rattle, walled, equal", walled, rattle, 0.55);
+}
+
+/// Two sizes, ratio 10 (reduced) and 100 (full): a jammed skeleton of large spheres with
+/// small ones rattling in its voids, seven grid levels at ratio 100; and a ratio-4 mixture
+/// of comparable volume fractions in walls.
+#[test]
+fn jamming_wide_size_ratios() {
+    header();
+    let ratio = if full() { 100.0 } else { 10.0 };
+    let n = size(400, 5000);
+    let edge = 10.0 * (n as f64 / 600.0).cbrt();
+    let mut diameters = vec![1.0; n];
+    diameters.extend(vec![1.0 / ratio; n]);
+    let scale = (0.3 * edge.powi(3) / (n as f64 * std::f64::consts::PI / 6.0)).cbrt();
+    for d in &mut diameters {
+        *d *= scale;
+    }
+    let kernel = seeded(cube(edge), &diameters, 3, 1.0);
+    let name = format!("jam, periodic, ratio {ratio}");
+    let (row, _) = run_case(&name, kernel, &[grow_to_jamming(0.05), equilibrate(50.0)]);
+    assert_eq!(row.stops[0], StopReason::Jammed);
+
+    // Ratio 4 with equal volumes of both sizes, walled.
+    let n_small = size(960, 12_800);
+    let n_large = n_small / 64;
+    let mut diameters = vec![4.0; n_large];
+    diameters.extend(vec![1.0; n_small]);
+    let volume: f64 = diameters
+        .iter()
+        .map(|d| std::f64::consts::PI / 6.0 * d * d * d)
+        .sum();
+    let edge = (volume / 0.3).cbrt();
+    let kernel = seeded(walled_cube(0.0, edge), &diameters, 4, 1.0);
+    let (row, _) = run_case(
+        "jam, walled, ratio 4 (equal volumes)",
+        kernel,
+        &[grow_to_jamming(0.05)],
+    );
+    assert_eq!(row.stops[0], StopReason::Jammed);
+}
+
+/// Lattice positions `spacing·(i + offset)` for `k³` spheres.
+fn lattice(k: usize, spacing: f64, offset: f64) -> Vec<Vec3> {
+    (0..k * k * k)
+        .map(|m| {
+            let (i, j, l) = (m % k, (m / k) % k, m / (k * k));
+            Vec3::new(i as f64, j as f64, l as f64).add_scalar(offset) * spacing
+        })
+        .collect()
+}
+
+/// Degenerate starts: many simultaneous collisions, spheres touching each other, walls and
+/// corners from the start, spheres at rest.
+#[test]
+fn degenerate_starts() {
+    header();
+    let k = 8;
+    // Simple cubic lattice, every sphere at the same speed, neighbours along each axis
+    // approaching head-on: all pairs collide at the same instant, again and again.
+    let mut kernel = placed(cube(k as f64 * 1.5), lattice(k, 1.5, 0.0), 1.0, 5);
+    let sign = |i: usize| if i % 2 == 0 { 1.0 } else { -1.0 };
+    kernel.set_velocities(|m| Vec3::new(sign(m % k), sign((m / k) % k), sign(m / (k * k))));
+    let (row, _) = run_case(
+        "sc lattice, equal speeds, grow",
+        kernel,
+        &[equilibrate(20.0), grow_to_jamming(0.05)],
+    );
+    assert_eq!(row.stops[1], StopReason::Jammed);
+
+    // Touching neighbours and walls everywhere: the lattice fills the walled box exactly, so
+    // every row of spheres is rigid between two walls and its momentum bounces through it
+    // in zero time (Newton's cradle without end). The kernel must say so — stalled —
+    // rather than loop or overlap.
+    let rigid = placed(walled_cube(0.0, k as f64), lattice(k, 1.0, 0.5), 1.0, 6);
+    let mut for_a_while = equilibrate(50.0);
+    for_a_while.until = Until {
+        time: Some(1.0),
+        ..Until::default()
+    };
+    let (row, _) = run_case("sc lattice filling walled box", rigid, &[for_a_while]);
+    assert_eq!(row.stops[0], StopReason::Stalled);
+    // The same lattice touching the three lower walls, with room to move: the touching
+    // contacts resolve (cradles of finite length) and the spheres grow to jamming.
+    let touching = placed(
+        walled_cube(0.0, k as f64 + 0.5),
+        lattice(k, 1.0, 0.5),
+        1.0,
+        6,
+    );
+    let (row, _) = run_case(
+        "sc lattice touching, 3 walls, grow",
+        touching,
+        &[equilibrate(50.0), grow_to_jamming(0.05)],
+    );
+    assert_eq!(row.stops[1], StopReason::Jammed);
+
+    // Spheres in all 8 corners touching three walls, plus touching pairs in between.
+    let edge = 6.0;
+    let mut centres = Vec::new();
+    for m in 0..8 {
+        let pick = |bit: usize| if m >> bit & 1 == 0 { 0.5 } else { edge - 0.5 };
+        centres.push(Vec3::new(pick(0), pick(1), pick(2)));
+    }
+    for z in [2.0, 3.0, 4.0] {
+        centres.push(Vec3::new(2.5, 3.0, z));
+        centres.push(Vec3::new(3.5, 3.0, z));
+    }
+    let corners = placed(walled_cube(0.0, edge), centres, 1.0, 7);
+    let (row, _) = run_case(
+        "corners and touching pairs, grow",
+        corners,
+        &[equilibrate(100.0), grow_to_jamming(0.05)],
+    );
+    assert_eq!(row.stops[1], StopReason::Jammed);
+
+    // At rest: only growth brings spheres into contact; the thermostat then has energy to
+    // scale.
+    let n = size(500, 5000);
+    let edge = 9.0 * (n as f64 / 500.0).cbrt();
+    let d = diameter_for(n, 0.3, edge.powi(3));
+    let mut at_rest = seeded(cube(edge), &vec![d; n], 8, 1.0);
+    at_rest.set_velocities(|_| Vec3::zeros());
+    let (row, _) = run_case("at rest, grow", at_rest, &[grow_to_jamming(0.05)]);
+    assert_eq!(row.stops[0], StopReason::Jammed);
+
+    // At rest without growth: nothing ever happens, and the stage says so instead of
+    // waiting forever.
+    let mut frozen = seeded(cube(edge), &vec![d; n], 9, 1.0);
+    frozen.set_velocities(|_| Vec3::zeros());
+    let mut stage = equilibrate(10.0);
+    stage.until.reduced_pressure = Some(10.0);
+    let (row, _) = run_case("at rest, no growth", frozen, &[stage]);
+    assert!(!row.stops[0].is_success(), "{:?}", row.stops);
+    assert_eq!(row.counts.events, 0);
+}
+
+/// A jamming run with every length scaled by `s` (and kT by s², so that velocities scale by
+/// s and times do not change): the packing fraction at every barrier, the final packing
+/// fraction, the counters and the kernel.
+fn scaled_run(s: f64, n: usize) -> (Row, Kernel<PeriodicBox>) {
+    let edge = 9.0 * s;
+    let d = diameter_for(n, 0.3, 9.0f64.powi(3)) * s;
+    let kernel = seeded(cube(edge), &vec![d; n], 10, s * s);
+    run_case(&format!("scale {s:e}"), kernel, &[grow_to_jamming(0.05)])
+}
+
+/// Scale covariance. EDMD with lengths ×s, kT ×s² (velocities ×s, times unchanged) and the
+/// relative growth rate unchanged computes every time and every ratio from quantities that
+/// all scale by the same power of s. Multiplying by a power of two is exact in floating
+/// point, so with s = 2^±10 ≈ 10^∓3 the run is *identical*: the same events in the same
+/// order, the same packing-fraction trajectory bit for bit, centres exactly s times the
+/// reference. With s = 10^±3 the inputs round differently at the last bit, and hard-sphere
+/// dynamics amplifies such differences (positive Lyapunov exponent): the trajectories agree
+/// to 1e-9 only until the event sequences part; after that only the statistics agree.
+#[test]
+fn scale_covariance() {
+    header();
+    let n = size(500, 4000);
+    let (reference, ref_kernel) = scaled_run(1.0, n);
+    for s in [2f64.powi(-10), 2f64.powi(10)] {
+        let (row, kernel) = scaled_run(s, n);
+        assert_eq!(row.counts, reference.counts, "scale {s}: other events");
+        assert_eq!(row.watch.trajectory.len(), reference.watch.trajectory.len());
+        for (a, b) in row.watch.trajectory.iter().zip(&reference.watch.trajectory) {
+            assert!((a - b).abs() <= 1e-9 * b, "scale {s}: φ {a} vs {b}");
+            assert_eq!(a.to_bits(), b.to_bits(), "scale {s}: not bit-identical");
+        }
+        for (p, q) in kernel.particles().iter().zip(ref_kernel.particles()) {
+            assert_eq!(p.pos, q.pos * s);
+            assert_eq!(p.shape.radius(0.0), q.shape.radius(0.0) * s);
+        }
+    }
+    for s in [1e-3, 1e3] {
+        let (row, _) = scaled_run(s, n);
+        let common = row
+            .watch
+            .trajectory
+            .iter()
+            .zip(&reference.watch.trajectory)
+            .take_while(|(a, b)| ((*a - *b) / *b).abs() <= 1e-9)
+            .count();
+        eprintln!(
+            "  scale {s:e}: packing fraction within 1e-9 of the reference for the first {common} of {} barriers; jammed at φ = {:.6} vs {:.6}",
+            reference.watch.trajectory.len(),
+            row.phi,
+            reference.phi
+        );
+        assert!(common >= 2, "scale {s}: the trajectories part at once");
+        assert_eq!(row.stops[0], StopReason::Jammed);
+        assert!(
+            (row.phi - reference.phi).abs() < 0.01,
+            "scale {s}: jammed at {} vs {}",
+            row.phi,
+            reference.phi
+        );
+    }
+}
+
+/// Coordinates far from the origin: a container whose corner sits at 10⁶ (unit-size
+/// spheres). A coordinate near 10⁶ is resolved to 1.2e-10 (one unit in the last place):
+/// relative gaps below ~10⁻¹⁰ cannot be represented there, and jammed packings have gaps of
+/// ~10⁻¹². What holds:
+/// - the kernel itself, given a container at 10⁶, grows to a dense fluid (φ = 0.6) and
+///   equilibrates there with no overlap beyond 1e-9 at any barrier (periodic and walled);
+///   run on to jamming there it overlaps by ~1e-8 and stalls (measured), so
+/// - a scene run (`densepack run`) puts the kernel at the container's origin and translates
+///   the packing when it writes it: the run is the same as at the origin (particles equal to
+///   the origin run's plus the offset, bit for bit), and the written packing, resolved to
+///   1.2e-10, passes the independent check.
+#[test]
+fn coordinates_offset_by_a_million() {
+    header();
+    let n = size(500, 4000);
+    let edge = 9.0 * (n as f64 / 500.0).cbrt();
+    let d = diameter_for(n, 0.3, edge.powi(3));
+    let to_dense = Stage {
+        growth: Growth::Relative(0.05),
+        until: Until {
+            packing_fraction: Some(0.6),
+            ..Until::default()
+        },
+        limits: Limits::default(),
+        thermostat: true,
+    };
+    let offset = 1e6;
+    let periodic = PeriodicBox {
+        min: Vec3::repeat(offset),
+        len: Vec3::repeat(edge),
+    };
+    let kernel = seeded(periodic, &vec![d; n], 11, 1.0);
+    let (row, _) = run_case(
+        "kernel at 1e6, periodic, to φ 0.6",
+        kernel,
+        &[to_dense.clone(), equilibrate(50.0)],
+    );
+    assert_eq!(row.stops[0], StopReason::PackingFractionReached);
+    let kernel = seeded(walled_cube(offset, edge), &vec![d; n], 12, 1.0);
+    let (row, _) = run_case(
+        "kernel at 1e6, walled, to φ 0.55",
+        kernel,
+        &[
+            Stage {
+                until: Until {
+                    packing_fraction: Some(0.55),
+                    ..Until::default()
+                },
+                ..to_dense
+            },
+            equilibrate(50.0),
+        ],
+    );
+    assert_eq!(row.stops[0], StopReason::PackingFractionReached);
+
+    // Scenes to jamming, walls on z, at the origin and at 10⁶.
+    let scene = |min: f64| {
+        format!(
+            "seed = 14\n[container]\ntype = \"box\"\nmin = [{min:?}, {min:?}, {min:?}]\n\
+             size = [{edge:?}, {edge:?}, {edge:?}]\nperiodic = [true, true, false]\n\
+             [particles]\ncount = {n}\ndiameter = 1.0\npacking_fraction = 0.3\n\
+             [[stage]]\ngrowth = \"relative\"\nrate = 0.05\nuntil = {{ reduced_pressure = 1e12 }}\n"
+        )
+    };
+    let at_origin = common::run_toml(&scene(0.0));
+    let far = common::run_toml(&scene(offset));
+    assert!(far.verification.ok());
+    eprintln!(
+        "scene at 1e6, jammed at φ = {:.6}: written packing's smallest relative gap {:.2e}, wall gap {:.2e} (at the origin: {:.2e})",
+        far.packing.stats.packing_fraction,
+        far.verification.min_pair_gap_relative.unwrap(),
+        far.verification.min_wall_gap.unwrap(),
+        at_origin.verification.min_pair_gap_relative.unwrap(),
+    );
+    assert_eq!(far.packing.stats.events, at_origin.packing.stats.events);
+    for (p, q) in far
+        .packing
+        .particles
+        .iter()
+        .zip(&at_origin.packing.particles)
+    {
+        let (
+            ParticleRecord::Sphere {
+                center: a,
+                radius: ra,
+            },
+            ParticleRecord::Sphere {
+                center: b,
+                radius: rb,
+            },
+        ) = (p, q)
+        else {
+            panic!("sphere scenes write spheres: {p:?}, {q:?}");
+        };
+        assert_eq!(ra, rb);
+        for k in 0..3 {
+            assert_eq!(a[k], b[k] + offset);
+        }
+    }
+}
