@@ -5,22 +5,11 @@
 //! The table is the place to add cases for new scene keys (ellipsoid axes, cylinder
 //! particles, grading curves and sieve tables): one row each, built with [`Parts`].
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn densepack(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_densepack"))
-        .args(args)
-        .output()
-        .expect("densepack runs")
-}
+use common::{densepack, temp_dir};
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("densepack-bad-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+use std::path::Path;
 
 /// The sections of a valid scene; a case replaces one of them.
 #[derive(Clone)]

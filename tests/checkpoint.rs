@@ -2,24 +2,14 @@
 //! resumed from its last checkpoint writes the same particles, bit for bit, as a run that
 //! was never interrupted; writing checkpoints does not change a run.
 
+mod common;
+
+use common::{densepack, temp_dir};
+
 use densepack::io::packing::Packing;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
-
-fn densepack(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_densepack"))
-        .args(args)
-        .output()
-        .expect("densepack runs")
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("densepack-ckpt-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 /// A few seconds of work in release mode: two sizes (ratio 2, so the cell grid has two
 /// levels), walls on z, growth to a packing fraction, then jamming.

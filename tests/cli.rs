@@ -2,22 +2,9 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use common::{densepack, temp_dir};
 
-fn densepack(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_densepack"))
-        .args(args)
-        .output()
-        .expect("densepack runs")
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("densepack-cli-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+use std::path::Path;
 
 fn scenes() -> &'static Path {
     Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/scenes"))

@@ -3,15 +3,11 @@
 //! cover the command line: bad options fail with exit code 2, name the option and write
 //! nothing; the CSV round-trips bit for bit.
 
-use std::path::PathBuf;
-use std::process::{Command, Output};
+mod common;
 
-fn densepack(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_densepack"))
-        .args(args)
-        .output()
-        .expect("densepack runs")
-}
+use common::densepack;
+
+use std::path::PathBuf;
 
 fn packing_file(name: &str) -> (PathBuf, PathBuf) {
     let dir = std::env::temp_dir().join(format!("densepack-export-{name}-{}", std::process::id()));

@@ -1,21 +1,8 @@
 //! The user-facing subcommands around `run`: `init`, `take`, progress output and provenance.
 
-use std::path::PathBuf;
-use std::process::{Command, Output};
+mod common;
 
-fn densepack(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_densepack"))
-        .args(args)
-        .output()
-        .expect("densepack runs")
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("densepack-tool-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+use common::{densepack, temp_dir};
 
 #[test]
 fn init_spheres_writes_a_scene_that_runs_with_json_progress_and_provenance() {

@@ -2,6 +2,29 @@
 #![allow(dead_code)] // each test file uses a subset
 
 use densepack::io::packing::{Packing, ParticleRecord};
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+/// Runs the `densepack` binary with `args`.
+pub fn densepack(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_densepack"))
+        .args(args)
+        .output()
+        .expect("densepack runs")
+}
+
+/// A fresh, empty directory for one test: named after the test binary, `name` and the
+/// process, so parallel tests and test binaries never share one.
+pub fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!(
+        "densepack-{}-{name}-{}",
+        env!("CARGO_CRATE_NAME"),
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
 use densepack::io::scene::Scene;
 use densepack::run::{run_scene, RunOutcome};
 
