@@ -449,7 +449,12 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
         None => (grown, 0.0, None),
     };
     let placed = Placed::spheres(&original, centres, &radii, min_gap, wall_gap);
-    let stats = RunStats::of_stages(&done.reports, radii.len());
+    let mut stats = RunStats::of_stages(&done.reports, radii.len());
+    if !done.gap_history.is_empty() {
+        stats
+            .extra
+            .insert("gap_history".into(), serde_json::json!(done.gap_history));
+    }
     finish(
         scene,
         original.record(),
@@ -497,7 +502,28 @@ impl StagesFrom {
 struct StagesDone {
     reports: Vec<StageReport>,
     gap_walls_moved: Option<f64>,
+    /// The gap Δd over time in a gap stage (paper 001, Fig. 10), at most
+    /// [`GAP_HISTORY_POINTS`] barriers, evenly thinned; from the resume on after a restart.
+    gap_history: Vec<GapSample>,
 }
+
+/// One barrier of a gap stage.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+struct GapSample {
+    /// Simulated time of the stage.
+    stage_time: f64,
+    /// Gap between the grains at their true sizes: twice the radius gained.
+    gap: f64,
+    /// Events of the stage so far.
+    events: u64,
+    /// Wall-clock seconds of the stage so far.
+    wall_seconds: f64,
+    /// Reduced pressure over the last barrier interval.
+    reduced_pressure: f64,
+}
+
+/// Most samples kept in a gap history.
+const GAP_HISTORY_POINTS: usize = 256;
 
 /// How far a gap stage moves the walls out: `Δd/2 − wall_gap` when it keeps less than half
 /// the gap to the walls, else 0.
@@ -532,6 +558,7 @@ fn run_stages<S: Collidable, B: Boundary + SceneContainer, Q: EventQueue>(
         mut reports,
     } = from;
     let mut gap_walls_moved = None;
+    let mut gap_history: Vec<GapSample> = Vec::new();
     let original = kernel.boundary().clone();
     for (k, spec) in scene.stages.iter().enumerate().skip(first) {
         // A resumed stage continues where its checkpoint was taken, in the kernel's container.
@@ -545,8 +572,34 @@ fn run_stages<S: Collidable, B: Boundary + SceneContainer, Q: EventQueue>(
         }
         let stage = spec.to_stage(full_size_fraction);
         let progress = progress.unwrap_or_else(|| kernel.start_stage(&stage));
+        // Every radius gains `rate` per unit time in a gap stage (absolute growth).
+        let gap_rate = spec.rate.filter(|_| spec.opens_gap());
+        let mut stride = 1usize;
+        let mut barrier = 0usize;
         let report = kernel.continue_stage(&stage, progress, &mut |kernel, p| {
-            on_progress(k, &p.observed(kernel));
+            let observed = p.observed(kernel);
+            on_progress(k, &observed);
+            if let Some(rate) = gap_rate {
+                if barrier % stride == 0 {
+                    gap_history.push(GapSample {
+                        stage_time: observed.stage_time,
+                        gap: 2.0 * rate * observed.stage_time,
+                        events: observed.counts.events,
+                        wall_seconds: observed.wall_seconds,
+                        reduced_pressure: observed.reduced_pressure,
+                    });
+                    if gap_history.len() >= GAP_HISTORY_POINTS {
+                        // Keep every other sample and sample half as often from now on.
+                        let mut keep = false;
+                        gap_history.retain(|_| {
+                            keep = !keep;
+                            keep
+                        });
+                        stride *= 2;
+                    }
+                }
+                barrier += 1;
+            }
             at_barrier(k, kernel, p, &reports);
         });
         on_stage(k, &report);
@@ -575,6 +628,7 @@ fn run_stages<S: Collidable, B: Boundary + SceneContainer, Q: EventQueue>(
     Ok(StagesDone {
         reports,
         gap_walls_moved,
+        gap_history,
     })
 }
 

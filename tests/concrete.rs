@@ -142,6 +142,19 @@ until = { max_gap = true }
         (smallest - gap).abs() < 1e-6 * gap,
         "smallest gap {smallest}, Δd_max {gap}"
     );
+    // Δd over time (paper 001, Fig. 10): rising with the events, ending at Δd_max.
+    let history = packing.stats.extra["gap_history"].as_array().unwrap();
+    assert!(history.len() > 10, "{} samples", history.len());
+    let value = |s: &serde_json::Value, k: &str| s[k].as_f64().unwrap();
+    for w in history.windows(2) {
+        assert!(value(&w[1], "gap") > value(&w[0], "gap"));
+        assert!(value(&w[1], "events") >= value(&w[0], "events"));
+    }
+    let last = value(history.last().unwrap(), "gap");
+    assert!(
+        (last - gap).abs() < 1e-9 * gap,
+        "last sample {last}, Δd_max {gap}"
+    );
 }
 
 #[test]
