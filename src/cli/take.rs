@@ -49,53 +49,56 @@ pub struct TakeArgs {
     json: bool,
 }
 
-/// Text of a runnable scene placing `diameters` (mm) in the specimen of `args`: seeded by
-/// random sequential addition at a fraction RSA reaches easily, then grown (relative growth
-/// keeps the size ratios) until the packing fraction of the drawn sizes, which the kernel
-/// meets exactly.
+/// Text of a runnable scene that draws the same grains (same curve, φ_M, d_min, specimen and
+/// seed: the run's take phase repeats this draw), seeds them by random sequential addition
+/// at δ = 0.9 of their size and grows them back to their true sizes (`full_size`). The
+/// drawn `diameters` and their fraction `phi` are quoted in its header.
 pub fn scene_text(
     args: &TakeArgs,
     name: &str,
+    spec: &GradingSpec,
     diameters: &[f64],
     phi: f64,
 ) -> Result<String, String> {
     use std::fmt::Write as _;
     let container = match (&args.r#box, &args.cylinder) {
         (Some(b), None) if b.len() == 3 => format!(
-            "type = \"box\"\nsize = [{}, {}, {}]\nperiodic = [false, false, false]   # concrete specimen: rigid walls",
+            "type = \"box\"\nsize = [{:?}, {:?}, {:?}]\nperiodic = [false, false, false]   # concrete specimen: rigid walls",
             b[0], b[1], b[2]
         ),
         (None, Some(c)) if c.len() == 2 => format!(
-            "type = \"cylinder\"\nradius = {}\nheight = {}",
+            "type = \"cylinder\"\nradius = {:?}\nheight = {:?}",
             c[0], c[1]
         ),
         _ => return Err("--scene needs the specimen as --box X,Y,Z or --cylinder R,H".into()),
     };
-    let seeding = (0.8 * phi).min(0.3);
+    let grading = toml::Value::try_from(spec).map_err(|e| e.to_string())?;
     let mut t = String::new();
     let _ = writeln!(
         t,
         "# densepack scene written by `densepack take {} --phi-m {} --d-min {} --seed {}`.\n\
-         # Grading curve: {name}. {} aggregates drawn (take phase, Algorithm 1), φ = {phi:.6}.\n\
-         # Lengths in mm. Seeded by RSA at φ = {seeding:.4} (all diameters scaled by one factor),\n\
-         # then grown at a relative rate until φ = {phi:.6}: back to the drawn diameters exactly.\n",
+         # Grading curve: {name}. The take phase (Algorithm 1) draws {} aggregates, φ = {phi:.6},\n\
+         # the same for this seed on every run. Lengths in mm. Seeded by RSA at 0.9 of the\n\
+         # true diameters, then grown at a relative rate until all reach their true size.\n",
         args.curve,
         args.phi_m,
         args.d_min,
         args.seed,
         diameters.len()
     );
-    let _ = writeln!(t, "seed = {}\n\n[container]\n{container}\n", args.seed);
     let _ = writeln!(
         t,
-        "[particles]\npacking_fraction = {seeding}\ncomponents = ["
+        "seed = {}\nmass = \"volume\"\n\n[container]\n{container}\n",
+        args.seed
     );
-    for d in diameters {
-        let _ = writeln!(t, "  {{ count = 1, diameter = {d} }},");
-    }
     let _ = writeln!(
         t,
-        "]\n\n[[stage]]\ngrowth = \"relative\"\nrate = 0.05\nuntil = {{ packing_fraction = {phi} }}\n\
+        "[particles]\ngrading = {grading}\nmixture_fraction = {:?}\nd_min = {:?}\n",
+        args.phi_m, args.d_min
+    );
+    let _ = writeln!(
+        t,
+        "[[stage]]\ngrowth = \"relative\"\nrate = 0.05\nuntil = {{ full_size = true }}\n\
          max_wall_seconds = 3600"
     );
     densepack::io::scene::Scene::from_toml(&t)
@@ -106,6 +109,14 @@ pub fn scene_text(
 /// Parses a grading curve given as a DIN name, `fuller:Q:D_MAX` or a TOML file with a
 /// `grading` table; returns it with a description.
 pub fn curve_of(text: &str) -> Result<(GradingCurve, String), String> {
+    let (spec, name) = spec_of(text)?;
+    let curve = spec.build().map_err(|e| format!("{text}: grading: {e}"))?;
+    Ok((curve, name))
+}
+
+/// The grading-curve description (as a scene's `particles.grading` holds it) of a DIN name,
+/// `fuller:Q:D_MAX` or a TOML file with a `grading` table, with a description.
+fn spec_of(text: &str) -> Result<(GradingSpec, String), String> {
     let din = [
         ("A8", DinCurve::A8),
         ("B8", DinCurve::B8),
@@ -115,7 +126,7 @@ pub fn curve_of(text: &str) -> Result<(GradingCurve, String), String> {
         ("C16", DinCurve::C16),
     ];
     if let Some((name, c)) = din.iter().find(|(n, _)| n.eq_ignore_ascii_case(text)) {
-        return Ok((GradingCurve::din(*c), format!("DIN 1045-2 {name}")));
+        return Ok((GradingSpec::Din { name: *c }, format!("DIN 1045-2 {name}")));
     }
     if let Some(rest) = text.strip_prefix("fuller:") {
         let parts: Vec<&str> = rest.split(':').collect();
@@ -124,8 +135,11 @@ pub fn curve_of(text: &str) -> Result<(GradingCurve, String), String> {
         };
         let q: f64 = q.parse().map_err(|e| format!("{text}: Q: {e}"))?;
         let d_max: f64 = d_max.parse().map_err(|e| format!("{text}: D_MAX: {e}"))?;
-        let curve = GradingCurve::fuller(q, d_max).map_err(|e| e.to_string())?;
-        return Ok((curve, format!("Fuller q = {q}, d_max = {d_max} mm")));
+        GradingCurve::fuller(q, d_max).map_err(|e| e.to_string())?;
+        return Ok((
+            GradingSpec::Fuller { q, d_max },
+            format!("Fuller q = {q}, d_max = {d_max} mm"),
+        ));
     }
     let path = Path::new(text);
     if !path.exists() {
@@ -144,8 +158,8 @@ pub fn curve_of(text: &str) -> Result<(GradingCurve, String), String> {
         .clone()
         .try_into()
         .map_err(|e| format!("{text}: grading: {e}"))?;
-    let curve = spec.build().map_err(|e| format!("{text}: grading: {e}"))?;
-    Ok((curve, format!("{text} ({spec:?})")))
+    let name = format!("{text} ({spec:?})");
+    Ok((spec, name))
 }
 
 fn volume_of(args: &TakeArgs) -> Result<f64, String> {
@@ -159,16 +173,19 @@ fn volume_of(args: &TakeArgs) -> Result<f64, String> {
 
 /// Runs `take`.
 pub fn run(args: &TakeArgs) -> ExitCode {
-    let prepared = curve_of(&args.curve).and_then(|(curve, name)| {
+    let prepared = spec_of(&args.curve).and_then(|(spec, name)| {
+        let curve = spec
+            .build()
+            .map_err(|e| format!("{}: grading: {e}", args.curve))?;
         let params = TakeParams {
             volume: volume_of(args)?,
             phi_m: args.phi_m,
             d_min: args.d_min,
         };
         let take = TakePhase::new(&curve, params).map_err(|e| e.to_string())?;
-        Ok((take, name))
+        Ok((take, name, spec))
     });
-    let (take, name) = match prepared {
+    let (take, name, spec) = match prepared {
         Ok(t) => t,
         Err(e) => {
             eprintln!("error: {e}");
@@ -191,7 +208,7 @@ pub fn run(args: &TakeArgs) -> ExitCode {
             files.push((path, text));
         }
         if let Some(path) = &args.scene {
-            match scene_text(args, &name, &diameters, phi) {
+            match scene_text(args, &name, &spec, &diameters, phi) {
                 Ok(text) => files.push((path, text)),
                 Err(e) => {
                     eprintln!("error: {e}");
