@@ -4,7 +4,9 @@
 //!
 //! * `fuller` (Fig. 7) — Fuller q = 0.5, grains 2–16 mm, walled cube of edge 32 mm and 80 mm:
 //!   success rate ψ and time per success t_ψ against φ_eff for RSA (N^F = 10⁵; full run also
-//!   10⁶) and EDMD (`fuller_80mm_walls.toml`).
+//!   10⁶) and EDMD (`fuller_80mm_walls.toml`). Slow even with `--quick`: the RSA rows near
+//!   saturation reject up to N^F candidates per sphere (no row finished within 10 minutes
+//!   in the one attempt); run it alone, and budget hours for the full table.
 //! * `gap` (Fig. 9) — A16, 80 mm walled cube, d_min = 2 mm, Δd = 1 mm
 //!   (`a16_80mm_gap1.toml`): success rate, time and events per run against φ_M.
 //! * `gapmax` (Fig. 10–11) — Δd maximisation (`b16_150mm_gapmax.toml`): A16 and B16 at
