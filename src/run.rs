@@ -13,7 +13,7 @@ pub mod ellipsoid;
 use crate::boundary::{Boundary, CylinderContainer, PeriodicBox, WalledBox};
 use crate::io::checkpoint::{write_checkpoint, CheckpointError, CheckpointFile, CheckpointHeader};
 use crate::io::packing::{
-    ContainerRecord, Packing, PackingStats, ParticleRecord, Provenance, Timings, FORMAT,
+    ContainerRecord, Packing, PackingStats, ParticleRecord, Provenance, Timings,
 };
 use crate::io::scene::{ContainerSpec, Method, Scene, StageSpec};
 use crate::kernel::{Edmd, KernelConfig, Progress, StageProgress, StageReport, StopReason};
@@ -364,13 +364,10 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
                     rsa_gap,
                     scene.particles.wall_gap,
                 );
-                let stats = RunStats {
-                    reduced_pressure: None,
-                    events: 0,
-                    collisions: 0,
+                let stats = PackingStats {
                     wall_seconds: started.elapsed().as_secs_f64(),
-                    stop_reason: "rsa_complete",
-                    extra: serde_json::Map::new(),
+                    stop_reason: "rsa_complete".into(),
+                    ..PackingStats::default()
                 };
                 let container = boundary.record();
                 return finish(
@@ -449,7 +446,7 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
         None => (grown, 0.0, None),
     };
     let placed = Placed::spheres(&original, centres, &radii, min_gap, wall_gap);
-    let mut stats = RunStats::of_stages(&done.reports, radii.len());
+    let mut stats = stats_of_stages(&done.reports, radii.len());
     if !done.gap_history.is_empty() {
         stats
             .extra
@@ -697,45 +694,35 @@ impl Placed {
     }
 }
 
-/// What a run reports besides the particles.
-struct RunStats {
-    reduced_pressure: Option<f64>,
-    events: u64,
-    collisions: u64,
-    wall_seconds: f64,
-    stop_reason: &'static str,
-    extra: serde_json::Map<String, serde_json::Value>,
-}
-
-impl RunStats {
-    /// The statistics of an EDMD run of `n` particles from its stage reports.
-    fn of_stages(reports: &[StageReport], n: usize) -> Self {
-        let last = reports.last().expect("a scene has at least one stage");
-        let events: u64 = reports.iter().map(|r| r.counts.events).sum();
-        let collisions: u64 = reports.iter().map(|r| r.counts.collisions).sum();
-        let wall_seconds: f64 = reports.iter().map(|r| r.wall_seconds).sum();
-        let mut extra = serde_json::Map::new();
-        extra.insert(
-            "collisions_per_particle".into(),
-            serde_json::json!(collisions as f64 / n.max(1) as f64),
-        );
-        extra.insert(
-            "events_per_second".into(),
-            serde_json::json!(events as f64 / wall_seconds.max(1e-12)),
-        );
-        extra.insert(
-            "reduced_pressure_stderr".into(),
-            serde_json::json!(last.reduced_pressure_stderr),
-        );
-        extra.insert("stages".into(), serde_json::json!(reports));
-        Self {
-            reduced_pressure: Some(last.reduced_pressure),
-            events,
-            collisions,
-            wall_seconds,
-            stop_reason: last.stop_reason.as_str(),
-            extra,
-        }
+/// The statistics of an EDMD run of `n` particles from its stage reports (the packing
+/// fraction is filled in by [`finish`]).
+fn stats_of_stages(reports: &[StageReport], n: usize) -> PackingStats {
+    let last = reports.last().expect("a scene has at least one stage");
+    let events: u64 = reports.iter().map(|r| r.counts.events).sum();
+    let collisions: u64 = reports.iter().map(|r| r.counts.collisions).sum();
+    let wall_seconds: f64 = reports.iter().map(|r| r.wall_seconds).sum();
+    let mut extra = serde_json::Map::new();
+    extra.insert(
+        "collisions_per_particle".into(),
+        serde_json::json!(collisions as f64 / n.max(1) as f64),
+    );
+    extra.insert(
+        "events_per_second".into(),
+        serde_json::json!(events as f64 / wall_seconds.max(1e-12)),
+    );
+    extra.insert(
+        "reduced_pressure_stderr".into(),
+        serde_json::json!(last.reduced_pressure_stderr),
+    );
+    extra.insert("stages".into(), serde_json::json!(reports));
+    PackingStats {
+        packing_fraction: 0.0,
+        reduced_pressure: Some(last.reduced_pressure),
+        events,
+        collisions,
+        wall_seconds,
+        stop_reason: last.stop_reason.as_str().into(),
+        extra,
     }
 }
 
@@ -746,33 +733,25 @@ fn finish<B: Boundary>(
     container: ContainerRecord,
     boundary: &B,
     placed: Placed,
-    stats: RunStats,
+    stats: PackingStats,
     stages: Vec<StageReport>,
     seeding_seconds: f64,
 ) -> Result<RunOutcome, RunError> {
     let origin = container_origin(scene);
+    let particles = placed
+        .particles
+        .into_iter()
+        .map(|p| p.translated(origin))
+        .collect();
     let mut packing = Packing {
-        format: FORMAT.into(),
-        version: 1,
-        container: container.translated(origin),
-        particles: placed
-            .particles
-            .into_iter()
-            .map(|p| p.translated(origin))
-            .collect(),
         min_gap: placed.min_gap,
         wall_gap: placed.wall_gap,
         seed: scene.seed,
         stats: PackingStats {
             packing_fraction: placed.volume / boundary.volume(),
-            reduced_pressure: stats.reduced_pressure,
-            events: stats.events,
-            collisions: stats.collisions,
-            wall_seconds: stats.wall_seconds,
-            stop_reason: stats.stop_reason.into(),
-            extra: stats.extra,
+            ..stats
         },
-        provenance: None,
+        ..Packing::new(container.translated(origin), particles)
     };
     let verify_started = std::time::Instant::now();
     let verification = verify(&packing);
@@ -840,23 +819,16 @@ pub fn mixture_packing(
         .and_then(|v| v.as_u64())
         .unwrap_or(0);
     Packing {
-        format: FORMAT.into(),
-        version: 1,
-        container: rve.boundary.record(),
-        particles: rve.records(),
-        min_gap: 0.0,
-        wall_gap: None,
         seed,
         stats: PackingStats {
             packing_fraction: fs + fc,
-            reduced_pressure: None,
             events,
-            collisions: 0,
             wall_seconds,
             stop_reason: "intersection_free".into(),
             extra,
+            ..PackingStats::default()
         },
-        provenance: None,
+        ..Packing::new(rve.boundary.record(), rve.records())
     }
 }
 

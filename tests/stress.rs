@@ -19,7 +19,7 @@
 mod common;
 
 use densepack::boundary::{Boundary, PeriodicBox, WalledBox};
-use densepack::io::packing::{Packing, PackingStats, ParticleRecord, FORMAT};
+use densepack::io::packing::{Packing, ParticleRecord};
 use densepack::kernel::{Edmd, EventCounts, KernelConfig, Limits, Stage, StopReason, Until};
 use densepack::protocol::rsa::rsa_spheres;
 use densepack::queue::CalendarQueue;
@@ -95,32 +95,15 @@ impl Watch {
 }
 
 fn packing_of<B: Boundary + SceneContainer>(kernel: &Kernel<B>) -> Packing {
-    Packing {
-        format: FORMAT.into(),
-        version: 1,
-        container: kernel.boundary().record(),
-        particles: kernel
-            .particles()
-            .iter()
-            .map(|p| ParticleRecord::Sphere {
-                center: p.pos.into(),
-                radius: p.shape.radius(0.0),
-            })
-            .collect(),
-        min_gap: 0.0,
-        wall_gap: None,
-        seed: 0,
-        stats: PackingStats {
-            packing_fraction: 0.0,
-            reduced_pressure: None,
-            events: 0,
-            collisions: 0,
-            wall_seconds: 0.0,
-            stop_reason: String::new(),
-            extra: Default::default(),
-        },
-        provenance: None,
-    }
+    let particles = kernel
+        .particles()
+        .iter()
+        .map(|p| ParticleRecord::Sphere {
+            center: p.pos.into(),
+            radius: p.shape.radius(0.0),
+        })
+        .collect();
+    Packing::new(kernel.boundary().record(), particles)
 }
 
 /// Runs a stage, checking the kernel at every barrier and at the end.

@@ -134,7 +134,7 @@ impl ParticleRecord {
 }
 
 /// Run statistics stored with a packing.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct PackingStats {
     /// Packing fraction of the written particles.
     pub packing_fraction: f64,
@@ -233,6 +233,22 @@ pub enum PackingError {
 }
 
 impl Packing {
+    /// A packing of `particles` in `container` with no gap promise, seed 0, empty statistics
+    /// and no provenance; fill in the rest with struct update syntax.
+    pub fn new(container: ContainerRecord, particles: Vec<ParticleRecord>) -> Self {
+        Self {
+            format: FORMAT.into(),
+            version: 1,
+            container,
+            particles,
+            min_gap: 0.0,
+            wall_gap: None,
+            seed: 0,
+            stats: PackingStats::default(),
+            provenance: None,
+        }
+    }
+
     /// The gap promised between particles and walls: `wall_gap`, or half of `min_gap`.
     pub fn wall_gap(&self) -> f64 {
         self.wall_gap.unwrap_or(0.5 * self.min_gap)

@@ -3,8 +3,8 @@
 //! tensor, and the independent verification.
 
 use super::{
-    finish, kernel_config, run_stages, Placed, RunError, RunOutcome, RunStats, SceneContainer,
-    StagesFrom,
+    finish, kernel_config, run_stages, stats_of_stages, Placed, RunError, RunOutcome,
+    SceneContainer, StagesFrom,
 };
 use crate::boundary::{Boundary, PeriodicBox, WalledBox};
 use crate::io::packing::ParticleRecord;
@@ -176,7 +176,7 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
     let volume = kernel.packing_fraction_at(0.0) * original.volume();
     drop(kernel);
     let (tensor, ratio) = orientation_tensor(&particles);
-    let mut stats = RunStats::of_stages(&done.reports, particles.len());
+    let mut stats = stats_of_stages(&done.reports, particles.len());
     stats
         .extra
         .insert("orientation_tensor".into(), serde_json::json!(tensor));

@@ -427,28 +427,9 @@ pub fn write_voxels(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::io::packing::{PackingStats, FORMAT};
 
     fn packing(container: ContainerRecord, particles: Vec<ParticleRecord>) -> Packing {
-        Packing {
-            format: FORMAT.into(),
-            version: 1,
-            container,
-            particles,
-            min_gap: 0.0,
-            wall_gap: None,
-            seed: 0,
-            stats: PackingStats {
-                packing_fraction: 0.0,
-                reduced_pressure: None,
-                events: 0,
-                collisions: 0,
-                wall_seconds: 0.0,
-                stop_reason: String::new(),
-                extra: Default::default(),
-            },
-            provenance: None,
-        }
+        Packing::new(container, particles)
     }
 
     fn cube(periodic: bool) -> ContainerRecord {
