@@ -421,12 +421,15 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
             }
         },
     )?;
-    let mut centres = vec![Vec3::zeros(); kernel.particles().len()];
-    for (p, &id) in kernel.particles().iter().zip(kernel.original_indices()) {
-        centres[id as usize] = p.pos;
-    }
-    let grown = radii_by_id(&kernel);
-    drop(kernel); // the verification's own index should not add to the kernel's peak memory
+    // The kernel's other arrays are freed before the output is built, so that the output
+    // and the verification's own index do not add to the kernel's peak memory.
+    let particles = kernel.into_particles();
+    let centres: Vec<Vec3> = particles.iter().map(|p| p.pos).collect();
+    let grown: Vec<f64> = particles
+        .iter()
+        .map(|p| p.shape.bounding_radius(0.0))
+        .collect();
+    drop(particles);
     let (radii, min_gap, wall_gap) = match done.gap_walls_moved {
         // The gap stage starts at the true sizes (validation requires it) and every radius
         // gains the same at the absolute rate; the guaranteed gap is twice the smallest gain
@@ -640,15 +643,6 @@ fn provenance(scene: &impl serde::Serialize, seed: u64, timings: Timings) -> Pro
             .duration_since(std::time::UNIX_EPOCH)
             .map_or(0, |d| d.as_secs()),
     }
-}
-
-/// Bounding radii of the kernel's particles (the radius of a sphere), in seeding order.
-fn radii_by_id<S: Collidable, B: Boundary, Q: EventQueue>(kernel: &Edmd<S, B, Q>) -> Vec<f64> {
-    let mut radii = vec![0.0; kernel.particles().len()];
-    for (p, &id) in kernel.particles().iter().zip(kernel.original_indices()) {
-        radii[id as usize] = p.shape.bounding_radius(0.0);
-    }
-    radii
 }
 
 /// The particles of a finished run (seeding order) and the gaps they guarantee.

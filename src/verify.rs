@@ -26,7 +26,6 @@
 
 use crate::io::packing::{ContainerRecord, Packing, ParticleRecord};
 use nalgebra::Vector3;
-use std::collections::HashMap;
 
 /// Relative tolerance of the overlap test (rounding of the written coordinates and of the
 /// kernel's time stepping stay far below it).
@@ -104,7 +103,13 @@ pub fn verify(packing: &Packing) -> Verification {
             }
         })
         .collect();
-    let oriented: Vec<Option<Oriented>> = packing.particles.iter().map(oriented_of).collect();
+    // Boxed: a sphere costs 8 bytes here, not the 88 of an inline `Option<Oriented>` (the
+    // verification of a 10⁶-sphere packing must not outgrow the simulation's memory).
+    let oriented: Vec<Option<Box<Oriented>>> = packing
+        .particles
+        .iter()
+        .map(|p| oriented_of(p).map(Box::new))
+        .collect();
     let gap = packing.min_gap;
     let wall_gap = packing.wall_gap();
     let mut out = Verification {
@@ -229,21 +234,43 @@ pub fn verify(packing: &Packing) -> Verification {
         }
     }
 
-    // Pairs through a hash grid of cells at least as wide as the largest contact distance.
+    // Pairs through a grid of cells at least as wide as the largest contact distance, with
+    // at most about 2 cells per particle; the particles are counting-sorted by cell
+    // (`members` of cell `c` are `sorted[start[c]..start[c + 1]]`): 4 bytes per particle and
+    // per cell, no allocation per cell.
     let r_max = balls.iter().map(|b| b.r).fold(0.0, f64::max);
-    let h = (2.0 * r_max + gap).max(f64::MIN_POSITIVE);
     let len = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
-    let ncell: [i64; 3] = std::array::from_fn(|k| ((len[k] / h).floor() as i64).max(1));
+    let mut h = (2.0 * r_max + gap).max(f64::MIN_POSITIVE);
+    let cells_along = |h: f64| -> [i64; 3] {
+        std::array::from_fn(|k| ((len[k] / h).floor().min(1e6) as i64).max(1))
+    };
+    let max_cells = 2 * balls.len() as i64 + 27;
+    while cells_along(h).iter().product::<i64>() > max_cells {
+        h *= 1.25;
+    }
+    let ncell = cells_along(h);
     let key = |c: &[f64; 3]| -> [i64; 3] {
         std::array::from_fn(|k| {
             let x = ((c[k] - lo[k]) / (len[k] / ncell[k] as f64)).floor() as i64;
             x.clamp(0, ncell[k] - 1)
         })
     };
-    let mut cells: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
-    for (i, b) in balls.iter().enumerate() {
-        cells.entry(key(&b.c)).or_default().push(i);
+    let linear = |k: &[i64; 3]| ((k[0] * ncell[1] + k[1]) * ncell[2] + k[2]) as usize;
+    let mut start = vec![0u32; ncell.iter().product::<i64>() as usize + 1];
+    for b in &balls {
+        start[linear(&key(&b.c)) + 1] += 1;
     }
+    for c in 1..start.len() {
+        start[c] += start[c - 1];
+    }
+    let mut sorted = vec![0u32; balls.len()];
+    let mut fill = start.clone();
+    for (i, b) in balls.iter().enumerate() {
+        let c = linear(&key(&b.c));
+        sorted[fill[c] as usize] = i as u32;
+        fill[c] += 1;
+    }
+    drop(fill);
     // Offsets along each axis: all cells if a periodic axis has fewer than 3.
     let offsets: [Vec<i64>; 3] = std::array::from_fn(|k| {
         if periodic[k] && ncell[k] < 3 {
@@ -280,10 +307,9 @@ pub fn verify(packing: &Packing) -> Verification {
                         continue;
                     }
                     seen.push(kj);
-                    let Some(members) = cells.get(&kj) else {
-                        continue;
-                    };
-                    for &j in members {
+                    let c = linear(&kj);
+                    let members = &sorted[start[c] as usize..start[c + 1] as usize];
+                    for j in members.iter().map(|&j| j as usize) {
                         if j <= i {
                             continue;
                         }
@@ -303,8 +329,8 @@ pub fn verify(packing: &Packing) -> Verification {
                                 continue; // bounding spheres apart
                             }
                             let scale = contact_scale(
-                                &shape_matrix_of(&oriented[i], bi.r),
-                                &shape_matrix_of(&oriented[j], bj.r),
+                                &shape_matrix_of(oriented[i].as_deref(), bi.r),
+                                &shape_matrix_of(oriented[j].as_deref(), bj.r),
                                 &dv,
                             );
                             let rel = scale - 1.0;
@@ -747,7 +773,7 @@ fn oriented_of(p: &ParticleRecord) -> Option<Oriented> {
 }
 
 /// `M` of a particle: its ellipsoid's, or `r²·I` for a sphere of radius `r`.
-fn shape_matrix_of(o: &Option<Oriented>, r: f64) -> [[f64; 3]; 3] {
+fn shape_matrix_of(o: Option<&Oriented>, r: f64) -> [[f64; 3]; 3] {
     match o {
         Some(e) => e.m,
         None => [[r * r, 0.0, 0.0], [0.0, r * r, 0.0], [0.0, 0.0, r * r]],

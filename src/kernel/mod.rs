@@ -358,6 +358,22 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         &self.ids
     }
 
+    /// Consumes the kernel and returns its particles in input order (element `k` is the
+    /// particle given as the `k`-th centre to [`Edmd::new`]). The kernel's other arrays (lists,
+    /// grid, queue) are freed before the particles are reordered.
+    pub fn into_particles(mut self) -> Vec<Particle<S>> {
+        let mut particles = std::mem::take(&mut self.particles);
+        let ids = std::mem::take(&mut self.ids);
+        drop(self);
+        let mut order = vec![0u32; ids.len()];
+        for (k, &id) in ids.iter().enumerate() {
+            order[id as usize] = k as u32;
+        }
+        drop(ids);
+        permute_in_place(&mut particles, &order, &mut vec![false; order.len()]);
+        particles
+    }
+
     /// Sets every particle's velocity to `velocity(id)`, `id` its index in the input of
     /// [`Edmd::new`]. Between stages only (the kernel is synchronised there and the next
     /// stage predicts every event afresh): scripted starts such as particles at rest or equal
@@ -692,42 +708,46 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     }
 
     /// Predicts collisions of particle `i` with its neighbours.
+    ///
+    /// The hot loop of the kernel (tens of predictions per collision). `i`'s state and local
+    /// list are copied into locals first: the compiler cannot tell the particle array from the
+    /// list array apart, and would otherwise reload `i`'s state after every push.
     #[inline]
     fn predict_pairs(&mut self, i: usize, partners: Partners) {
         let t = self.time;
         let max_tau = self.barrier_time - t;
         let pi = &self.particles[i];
-        let pos_i = pi.position_at(t);
-        let spin_i = pi.spin_at(t);
-        let list = &mut self.local[i];
-        {
-            for j in self.neighbours[i].iter().map(|&j| j as usize) {
-                let skip = match partners {
-                    Partners::All => false,
-                    Partners::AllBut(k) => j == k,
-                    Partners::Above => j <= i,
-                };
-                if skip {
-                    continue;
-                }
-                let pj = &self.particles[j];
-                let mut dr = pos_i - pj.position_at(t);
-                self.boundary.minimum_image(&mut dr);
-                let dv = pi.vel - pj.vel;
-                let spin_j = pj.spin_at(t);
-                if let Some(tau) = S::predict_collision(
-                    &pi.shape, &pj.shape, &spin_i, &spin_j, &dr, &dv, t, max_tau,
-                ) {
-                    list.push(LocalEvent::new(
-                        t + tau,
-                        EventKind::Collision {
-                            partner: j as u32,
-                            partner_count: self.counts[j],
-                        },
-                    ));
-                }
+        let (pos_i, vel_i, spin_i, shape_i) =
+            (pi.position_at(t), pi.vel, pi.spin_at(t), pi.shape.clone());
+        // Skip `j` when `j == except` or `j < first`.
+        let (except, first) = match partners {
+            Partners::All => (i, 0),
+            Partners::AllBut(k) => (k, 0),
+            Partners::Above => (i, i + 1),
+        };
+        let mut list = self.local[i];
+        for j in self.neighbours[i].iter().map(|&j| j as usize) {
+            if j == except || j < first {
+                continue;
+            }
+            let pj = &self.particles[j];
+            let mut dr = pos_i - pj.position_at(t);
+            self.boundary.minimum_image(&mut dr);
+            let dv = vel_i - pj.vel;
+            let spin_j = pj.spin_at(t);
+            if let Some(tau) =
+                S::predict_collision(&shape_i, &pj.shape, &spin_i, &spin_j, &dr, &dv, t, max_tau)
+            {
+                list.push(LocalEvent::new(
+                    t + tau,
+                    EventKind::Collision {
+                        partner: j as u32,
+                        partner_count: self.counts[j],
+                    },
+                ));
             }
         }
+        self.local[i] = list;
     }
 
     /// Predicts the wall contact and the neighbour-list update of particle `i`.

@@ -12,12 +12,14 @@
 //! - the **front**, a small indexed binary heap ordered by `(time, key)`, holds every entry
 //!   with `s(t) <= cur`: the current bucket's entries and any entry scheduled before it
 //!   (which the kernel only does by rounding; it stays correct for any time);
-//! - each later bucket `cur < b < nb` is an **unsorted `Vec`** of keys;
+//! - each later bucket `cur < b < nb` is an **unsorted doubly linked list** of keys, threaded
+//!   through per-key links (Paul's own layout: no allocation per bucket, 8 bytes of links per
+//!   key and 4 bytes of list head per bucket);
 //! - entries with `s(t) = nb` go to the unsorted **overflow** list.
 //!
-//! Every key knows where it is (front position, or bucket and position in that bucket's
-//! `Vec`, or position in the overflow), so `cancel` and re-`schedule` are `O(1)` outside the
-//! front (`swap_remove`, then the moved key's position is fixed) and `O(log m)` in a front of
+//! Every key knows where it is (front position, bucket, or position in the overflow), so
+//! `cancel` and re-`schedule` are `O(1)` outside the front (unlinking from a bucket list, or
+//! `swap_remove` from the overflow) and `O(log m)` in a front of
 //! `m` entries. `peek`/`pop` serve the front's minimum, which is the global minimum by the
 //! invariants above. When the front runs empty, `cur` advances to the next non-empty bucket,
 //! whose entries are heapified into the front. When `cur` runs past the last bucket, only
@@ -59,12 +61,15 @@ use std::cmp::Ordering;
 const FRONT_LIMIT: usize = 64;
 
 /// Mean entries per bucket the calendar is laid out for: a few entries keep the front heap
-/// tiny while a quarter as many bucket headers and allocations as keys keep memory low
-/// (measured in BENCHMARKS.md).
+/// tiny while a quarter as many bucket heads as keys keep memory low (measured in
+/// BENCHMARKS.md).
 const ENTRIES_PER_BUCKET: usize = 4;
 
 /// Upper bound on the number of buckets (and with it on the memory a `reset` can allocate).
 const MAX_BUCKETS: usize = 1 << 24;
+
+/// End of a bucket list (keys are below `u32::MAX`).
+const NIL: u32 = u32::MAX;
 
 /// Where a key's entry is stored. Positions index the named `Vec`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -73,13 +78,8 @@ enum Place {
     Absent,
     /// In the front heap, at this position of `front`.
     Front(u32),
-    /// In bucket `index`, at position `pos` of `buckets[index]`.
-    Bucket {
-        /// Bucket index, `cur < index < nb`.
-        index: u32,
-        /// Position in the bucket's `Vec`.
-        pos: u32,
-    },
+    /// In the list of this bucket (`cur < index < nb`).
+    Bucket(u32),
     /// In the overflow list, at this position.
     Overflow(u32),
 }
@@ -101,14 +101,17 @@ pub struct CalendarQueue {
     time: Vec<f64>,
     /// `place[k]` is where key `k`'s entry is stored; `time.len() == place.len()`.
     place: Vec<Place>,
+    /// `link[k] = [previous, next]` key in the list of key `k`'s bucket ([`NIL`] at the ends);
+    /// meaningful only while `place[k]` is `Bucket`. `link.len() == place.len()`.
+    link: Vec<[u32; 2]>,
     /// Indexed binary min-heap by `(time, key)` of every entry with bucket `<= cur`;
-    /// `place[front[i]] == Front(i)`. In heap mode (`buckets` empty) it holds every entry.
+    /// `place[front[i]] == Front(i)`. In heap mode (`heads` empty) it holds every entry.
     front: Vec<u32>,
-    /// `buckets.len() == nb`, the number of buckets of the calendar (0 in heap mode).
-    /// `buckets[b]` for `cur < b < nb` holds, unsorted, exactly the keys whose time falls in
-    /// bucket `b`, with `place[buckets[b][i]] == Bucket { index: b, pos: i }`; buckets
-    /// `b <= cur` are empty.
-    buckets: Vec<Vec<u32>>,
+    /// `heads.len() == nb`, the number of buckets of the calendar (0 in heap mode).
+    /// `heads[b]` for `cur < b < nb` is the first key of the list that holds, unsorted,
+    /// exactly the keys whose time falls in bucket `b` (each with `place == Bucket(b)`), or
+    /// [`NIL`]; buckets `b <= cur` are empty.
+    heads: Vec<u32>,
     /// Unsorted keys whose time falls beyond the last bucket;
     /// `place[overflow[i]] == Overflow(i)`. Empty in heap mode.
     overflow: Vec<u32>,
@@ -135,7 +138,7 @@ impl CalendarQueue {
     /// schedules, go to the end of the order their sign gives them).
     #[inline]
     fn slot(&self, t: f64) -> usize {
-        let nb = self.buckets.len();
+        let nb = self.heads.len();
         let x = (t - self.origin) * self.inv_width;
         if x >= 0.0 {
             if x < nb as f64 {
@@ -231,13 +234,14 @@ impl CalendarQueue {
             self.front.push(k);
             let i = self.front.len() - 1;
             self.sift_up(i);
-        } else if s < self.buckets.len() {
-            let bucket = &mut self.buckets[s];
-            self.place[k as usize] = Place::Bucket {
-                index: s as u32,
-                pos: bucket.len() as u32,
-            };
-            bucket.push(k);
+        } else if s < self.heads.len() {
+            let head = self.heads[s];
+            self.link[k as usize] = [NIL, head];
+            if head != NIL {
+                self.link[head as usize][0] = k;
+            }
+            self.heads[s] = k;
+            self.place[k as usize] = Place::Bucket(s as u32);
         } else {
             self.place[k as usize] = Place::Overflow(self.overflow.len() as u32);
             self.overflow.push(k);
@@ -250,11 +254,15 @@ impl CalendarQueue {
         match self.place[k as usize] {
             Place::Absent => return,
             Place::Front(i) => self.front_remove(i as usize),
-            Place::Bucket { index, pos } => {
-                let bucket = &mut self.buckets[index as usize];
-                bucket.swap_remove(pos as usize);
-                if let Some(&moved) = bucket.get(pos as usize) {
-                    self.place[moved as usize] = Place::Bucket { index, pos };
+            Place::Bucket(index) => {
+                let [prev, next] = self.link[k as usize];
+                if prev == NIL {
+                    self.heads[index as usize] = next;
+                } else {
+                    self.link[prev as usize][1] = next;
+                }
+                if next != NIL {
+                    self.link[next as usize][0] = prev;
                 }
             }
             Place::Overflow(pos) => {
@@ -269,7 +277,7 @@ impl CalendarQueue {
 
     /// Drops every bucket: the queue becomes a plain heap (everything goes to the front).
     fn heap_mode(&mut self) {
-        self.buckets.clear();
+        self.heads.clear();
         self.cur = 0;
         self.origin = 0.0;
         self.inv_width = 1.0;
@@ -284,8 +292,9 @@ impl CalendarQueue {
             return;
         }
         let nb = nb.clamp(1, MAX_BUCKETS);
-        self.buckets.truncate(nb);
-        self.buckets.resize_with(nb, Vec::new);
+        // Every list is empty here (the entries were taken out first).
+        self.heads.clear();
+        self.heads.resize(nb, NIL);
         self.cur = 0;
         self.origin = origin;
         self.inv_width = inv_width;
@@ -296,8 +305,8 @@ impl CalendarQueue {
         let mut keys = std::mem::take(&mut self.scratch_keys);
         keys.clear();
         keys.append(&mut self.front);
-        for bucket in &mut self.buckets {
-            keys.append(bucket);
+        for b in 0..self.heads.len() {
+            self.take_bucket(b, &mut keys);
         }
         keys.append(&mut self.overflow);
 
@@ -349,9 +358,9 @@ impl CalendarQueue {
                 return;
             }
             // Entries outside the front exist only with buckets, so `cur < nb` here.
-            let nb = self.buckets.len();
+            let nb = self.heads.len();
             let mut b = self.cur + 1;
-            while b < nb && self.buckets[b].is_empty() {
+            while b < nb && self.heads[b] == NIL {
                 b += 1;
             }
             if b == nb {
@@ -361,16 +370,25 @@ impl CalendarQueue {
                 continue;
             }
             self.cur = b;
-            let bucket = std::mem::take(&mut self.buckets[b]);
-            self.front.extend_from_slice(&bucket);
-            for (i, &k) in bucket.iter().enumerate() {
+            let mut front = std::mem::take(&mut self.front);
+            self.take_bucket(b, &mut front);
+            for (i, &k) in front.iter().enumerate() {
                 self.place[k as usize] = Place::Front(i as u32);
             }
+            self.front = front;
             for i in (0..self.front.len() / 2).rev() {
                 self.sift_down(i);
             }
-            self.buckets[b] = bucket;
-            self.buckets[b].clear();
+        }
+    }
+
+    /// Appends the keys of bucket `b` to `out` and empties the bucket (their places are left
+    /// to the caller).
+    fn take_bucket(&mut self, b: usize, out: &mut Vec<u32>) {
+        let mut k = std::mem::replace(&mut self.heads[b], NIL);
+        while k != NIL {
+            out.push(k);
+            k = self.link[k as usize][1];
         }
     }
 
@@ -385,6 +403,7 @@ impl CalendarQueue {
             .expect("CalendarQueue keys must be below u32::MAX");
         if key >= self.place.len() {
             self.place.resize(key + 1, Place::Absent);
+            self.link.resize(key + 1, [NIL; 2]);
             self.time.resize(key + 1, 0.0);
         }
         k
@@ -396,8 +415,9 @@ impl EventQueue for CalendarQueue {
         Self {
             time: vec![0.0; capacity],
             place: vec![Place::Absent; capacity],
+            link: vec![[NIL; 2]; capacity],
             front: Vec::new(),
-            buckets: Vec::new(),
+            heads: Vec::new(),
             overflow: Vec::new(),
             cur: 0,
             origin: 0.0,
@@ -413,11 +433,15 @@ impl EventQueue for CalendarQueue {
         for k in self.front.drain(..) {
             self.place[k as usize] = Place::Absent;
         }
-        for bucket in &mut self.buckets {
-            for k in bucket.drain(..) {
-                self.place[k as usize] = Place::Absent;
-            }
+        let mut keys = std::mem::take(&mut self.scratch_keys);
+        keys.clear();
+        for b in 0..self.heads.len() {
+            self.take_bucket(b, &mut keys);
         }
+        for &k in &keys {
+            self.place[k as usize] = Place::Absent;
+        }
+        self.scratch_keys = keys;
         for k in self.overflow.drain(..) {
             self.place[k as usize] = Place::Absent;
         }
@@ -442,7 +466,7 @@ impl EventQueue for CalendarQueue {
                 self.front_fix(i as usize);
                 return;
             }
-            Place::Bucket { index, .. } if self.slot(time) == index as usize => {
+            Place::Bucket(index) if self.slot(time) == index as usize => {
                 self.time[key] = time;
                 return;
             }
@@ -491,7 +515,7 @@ mod tests {
     impl CalendarQueue {
         /// Asserts the invariants stated on the fields.
         fn check_invariants(&self) {
-            let nb = self.buckets.len();
+            let nb = self.heads.len();
             assert!(self.cur < nb || (nb == 0 && self.cur == 0));
             assert!(nb > 0 || self.overflow.is_empty());
             for (i, &k) in self.front.iter().enumerate() {
@@ -502,14 +526,17 @@ mod tests {
                 }
             }
             let mut in_buckets = 0;
-            for (b, bucket) in self.buckets.iter().enumerate() {
-                assert!(b > self.cur || bucket.is_empty());
-                for (pos, &k) in bucket.iter().enumerate() {
-                    let (index, pos) = (b as u32, pos as u32);
-                    assert_eq!(self.place[k as usize], Place::Bucket { index, pos });
+            for (b, &head) in self.heads.iter().enumerate() {
+                assert!(b > self.cur || head == NIL);
+                let (mut prev, mut k) = (NIL, head);
+                while k != NIL {
+                    assert_eq!(self.place[k as usize], Place::Bucket(b as u32));
                     assert_eq!(self.slot(self.time[k as usize]), b);
+                    assert_eq!(self.link[k as usize][0], prev);
+                    in_buckets += 1;
+                    assert!(in_buckets <= self.len, "a bucket list has a cycle");
+                    (prev, k) = (k, self.link[k as usize][1]);
                 }
-                in_buckets += bucket.len();
             }
             for (pos, &k) in self.overflow.iter().enumerate() {
                 assert_eq!(self.place[k as usize], Place::Overflow(pos as u32));
@@ -542,7 +569,7 @@ mod tests {
                 q.schedule(k, t - rng.gen::<f64>().ln());
                 q.schedule(rng.gen_range(0..n), t - rng.gen::<f64>().ln());
                 if i > 1000 {
-                    assert!(!q.buckets.is_empty(), "heap mode at pop {i}");
+                    assert!(!q.heads.is_empty(), "heap mode at pop {i}");
                     max_front = max_front.max(q.front.len());
                 }
                 if i % 10_000 == 0 {
