@@ -36,7 +36,7 @@ pub struct KernelSnapshot<'a, S: Collidable> {
     counts: Cow<'a, [u32]>,
     list_centre: Cow<'a, [Vec3]>,
     list_radius: Cow<'a, [f64]>,
-    neighbours: Cow<'a, [Vec<u32>]>,
+    neighbours: Cow<'a, [super::NeighbourList]>,
     grid: Cow<'a, CellGrid>,
     ids: Cow<'a, [u32]>,
     reference_volume: f64,
