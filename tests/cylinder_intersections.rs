@@ -636,7 +636,7 @@ fn rsa_broad_phase_keeps_every_intersecting_image() {
         let (a, b) = (wrap(&a), wrap(&b));
         // Both bodies' capsule radii are below 1.5; pads and grid sizes vary.
         let pad = [1.5, 2.0, 4.0][i % 3];
-        let mut grid = CapsuleGrid::new(&boundary, pad, [1, 2, 50][(i / 3) % 3]);
+        let mut grid = CapsuleGrid::new(&boundary, pad, [1, 2, 8][(i / 3) % 3]);
         grid.insert(0, &a);
         let mut listed = Vec::new();
         grid.any_image(&b, |j, offset| {

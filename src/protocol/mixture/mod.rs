@@ -6,10 +6,11 @@
 //!
 //! A mixture is a list of bodies ([`Shape`]: spheres `S(p, r)` and cylinders `C(p, r, l)`)
 //! in a [`PeriodicBox`]. Every intersection question goes to the exact typed tests of
-//! [`crate::geometry::cylinder`]; candidate pairs come from a [`CellGrid`] over the wrapped
-//! centres with cells as wide as the largest bounding diameter, and every periodic image
-//! of a partner whose bounding sphere can reach the body is tested — across faces, edges
-//! and corners, and a long cylinder against its own images.
+//! [`crate::geometry::cylinder`]; the relaxer's candidate pairs come from a [`CellGrid`]
+//! over the wrapped centres with cells as wide as the largest bounding diameter, RSA's from
+//! a capsule-aware index ([`rsa::CapsuleGrid`]); every periodic image of a partner that can
+//! reach the body is tested — across faces, edges and corners, and a long cylinder against
+//! its own images.
 //!
 //! # Sizes (Algorithm 5, steps 1–2)
 //!
