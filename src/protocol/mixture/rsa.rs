@@ -581,8 +581,7 @@ pub fn rsa_mixture<R: Rng>(
                     && !grid.any_image(&candidate, |j, offset| {
                         // Bounding spheres apart: no intersection (the cheapest exit).
                         let apart = reach + bounding[j];
-                        if (bodies[j].center() + offset - center).norm_squared() >= apart * apart
-                        {
+                        if (bodies[j].center() + offset - center).norm_squared() >= apart * apart {
                             return false;
                         }
                         let partner = bodies[j].translated(offset);
