@@ -2,11 +2,13 @@
 //! against an independent oracle: the distance between two convex bodies computed by GJK
 //! on support maps (written here, sharing no code with the library).
 
+use densepack::boundary::PeriodicBox;
 use densepack::geometry::cylinder::{
     intersect_cylinder_cylinder, intersect_disk_disk, intersect_sphere_cylinder,
-    intersect_sphere_sphere, overlaps, BaseContact, Cylinder, CylinderContact, DiskDiskKind,
-    DiskSideKind, End, Shape, Sphere, SphereCylinderKind,
+    intersect_sphere_sphere, overlaps, overlaps_decided_early, BaseContact, Cylinder,
+    CylinderContact, DiskDiskKind, DiskSideKind, End, Shape, Sphere, SphereCylinderKind,
 };
+use densepack::protocol::mixture::rsa::CapsuleGrid;
 use nalgebra::Vector3;
 use rand::{Rng, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -596,4 +598,78 @@ fn random_pairs_agree_with_gjk_oracle() {
     }
     assert!(disagreements.is_empty());
     assert!(checked > 90_000 && overlapping > 10_000);
+}
+
+/// The RSA broad phase (`CapsuleGrid` cells, then the cheap steps of the exact tests) never
+/// drops an image the exact test finds intersecting: random pairs (every degeneracy, a
+/// third within ±1e-6 of touching, so also the pairs the separating-axis exit sees at the
+/// margin) in a periodic box of edge 6 (bodies up to 5 long), against every lattice image
+/// `n ∈ {−2, …, 2}³` of the placed body. `overlaps_decided_early` must agree with
+/// `overlaps` whenever it decides (`overlaps` itself is checked against GJK above).
+#[test]
+fn rsa_broad_phase_keeps_every_intersecting_image() {
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(0xb40a_d9a5);
+    let degs = [
+        Degeneracy::General,
+        Degeneracy::ParallelAxes,
+        Degeneracy::CrossingAxes,
+        Degeneracy::CoincidentCentres,
+        Degeneracy::AxisParallelToDisk,
+    ];
+    let edge = 6.0;
+    let boundary = PeriodicBox {
+        min: V::repeat(-1.0),
+        len: V::repeat(edge),
+    };
+    let wrap = |s: &Shape| {
+        let c = center(s);
+        let w = c.map(|x| (x + 1.0).rem_euclid(edge) - 1.0);
+        translated(s, w - c)
+    };
+    let (mut intersecting_images, mut decided, mut undecided) = (0usize, 0usize, 0usize);
+    for i in 0..20_000 {
+        let (a, b) = random_pair(&mut rng, i % 3, degs[(i / 3) % degs.len()]);
+        let b = match i % 9 {
+            0..=2 => place_near_touching(&a, &b, if i % 2 == 0 { 1e-6 } else { -1e-6 }),
+            _ => b,
+        };
+        let (a, b) = (wrap(&a), wrap(&b));
+        // Both bodies' capsule radii are below 1.5; pads and grid sizes vary.
+        let pad = [1.5, 2.0, 4.0][i % 3];
+        let mut grid = CapsuleGrid::new(&boundary, pad, [1, 2, 8][(i / 3) % 3]);
+        grid.insert(0, &a);
+        let mut listed = Vec::new();
+        grid.any_image(&b, |j, offset| {
+            assert_eq!(j, 0);
+            listed.push(offset);
+            false
+        });
+        for n in 0..125 {
+            let t = V::new(
+                (n % 5) as f64 - 2.0,
+                ((n / 5) % 5) as f64 - 2.0,
+                (n / 25) as f64 - 2.0,
+            ) * edge;
+            let image = translated(&a, t);
+            let truth = overlaps(&b, &image);
+            match overlaps_decided_early(&b, &image) {
+                Some(early) => {
+                    decided += 1;
+                    assert_eq!(early, truth, "early verdict differs: {b:?} {image:?}");
+                }
+                None => undecided += 1,
+            }
+            if truth {
+                intersecting_images += 1;
+                assert!(
+                    listed.contains(&t),
+                    "broad phase dropped the intersecting image {t:?}: {b:?} vs {a:?}"
+                );
+            }
+        }
+    }
+    println!(
+        "intersecting images {intersecting_images}, decided early {decided}, undecided {undecided}"
+    );
+    assert!(intersecting_images > 5_000 && undecided > 100);
 }

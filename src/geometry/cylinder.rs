@@ -759,10 +759,12 @@ fn parallel_cylinders(a: &Cylinder, b: &Cylinder, tol: f64) -> Option<CylinderCo
     Some(CylinderContact::Cc1(contact))
 }
 
-/// Squared distance between the segments `p ± h_p u` and `q ± h_q w` (unit `u`, `w`):
-/// the convex quadratic in the two segment parameters minimised over the rectangle
-/// `[−h_p, h_p] × [−h_q, h_q]` (interior stationary point, else the best of the edges).
-fn segment_distance_squared(
+/// Squared distance between the segments `p ± h_p u` and `q ± h_q w` (unit `u`, `w`;
+/// `h = 0` gives a point): the convex quadratic in the two segment parameters minimised
+/// over the rectangle `[−h_p, h_p] × [−h_q, h_q]` (interior stationary point, else the
+/// best of the edges). Two capsules of radii `r_p`, `r_q` about these segments intersect
+/// iff it is below `(r_p + r_q)²`.
+pub fn segment_distance_squared(
     p: &Vector3<f64>,
     u: &Vector3<f64>,
     hp: f64,
@@ -800,58 +802,78 @@ fn segment_distance_squared(
 /// Shared body of [`intersect_cylinder_cylinder`] and [`overlaps`]; with `first_only` it
 /// returns as soon as one base intersection is found.
 fn cylinder_cylinder(a: &Cylinder, b: &Cylinder, first_only: bool) -> Option<CylinderContact> {
+    cylinder_cylinder_early(a, b).unwrap_or_else(|| base_contacts(a, b, first_only))
+}
+
+/// Algorithm 4 up to the base tests: `Some(answer)` when bounding spheres, bounding
+/// capsules, a separating axis along either cylinder axis, parallel axes, the axis
+/// distance or `cc1` decide; `None` when only the base tests ([`base_contacts`]) can tell.
+fn cylinder_cylinder_early(a: &Cylinder, b: &Cylinder) -> Option<Option<CylinderContact>> {
     let tol = tolerance(cylinder_size(a).max(cylinder_size(b)));
     let d = b.center - a.center;
+    let (ha, hb) = (a.half_length(), b.half_length());
     // Bounding spheres: an exact early exit.
-    let ra = a.half_length().hypot(a.radius);
-    let rb = b.half_length().hypot(b.radius);
-    if d.norm() >= ra + rb {
-        return None;
+    let ra = (ha * ha + a.radius * a.radius).sqrt();
+    let rb = (hb * hb + b.radius * b.radius).sqrt();
+    if d.norm_squared() >= (ra + rb) * (ra + rb) {
+        return Some(None);
     }
+    let (u1, u2) = (a.half_axis / ha, b.half_axis / hb);
     // Bounding capsules (each cylinder lies within its radius of its axis segment): an
     // exact early exit, with the touching tolerance on the safe side.
     let reach = a.radius + b.radius + tol;
-    if segment_distance_squared(
-        &a.center,
-        &a.axis(),
-        a.half_length(),
-        &b.center,
-        &b.axis(),
-        b.half_length(),
-    ) >= reach * reach
-    {
-        return None;
+    if segment_distance_squared(&a.center, &u1, ha, &b.center, &u2, hb) >= reach * reach {
+        return Some(None);
     }
-    let (u1, u2) = (a.axis(), b.axis());
+    // Separating axes along either cylinder axis: the projection of a cylinder `(u, h, r)`
+    // on a unit `n` is its centre's ± `h |u·n| + r √(1 − (u·n)²)`, so a gap between the
+    // projections proves the bodies disjoint (an exact early exit that spares the base
+    // tests below for most near-miss pairs, e.g. end-to-end or end-to-side).
+    let half_extent = |u: &Vector3<f64>, h: f64, r: f64, n: &Vector3<f64>| {
+        let c = u.dot(n).abs();
+        h * c + r * (1.0 - c * c).max(0.0).sqrt()
+    };
+    for n in [&u1, &u2] {
+        if d.dot(n).abs() - half_extent(&u1, ha, a.radius, n) - half_extent(&u2, hb, b.radius, n)
+            > 0.0
+        {
+            return Some(None);
+        }
+    }
     // Step 1: common normal of the axes.
     let c = cross(&u1, &u2);
     let sine = c.norm();
     if sine <= PARALLEL_SINE {
-        return parallel_cylinders(a, b, tol);
+        return Some(parallel_cylinders(a, b, tol));
     }
     let n = c / sine;
     // Step 2, 3: distance between the axes.
     let rho = d.dot(&n).abs();
     if a.radius + b.radius - rho <= tol {
-        return None;
+        return Some(None);
     }
     // Step 3(b): feet of the common perpendicular, in length units along the unit axes:
     // s₁ = c·(d × u₂)/|c|², s₂ = c·(d × u₁)/|c|² (equal to the paper's t₁‖l₁‖, t₂‖l₂‖).
     let s1 = c.dot(&cross(&d, &u2)) / (sine * sine);
     let s2 = c.dot(&cross(&d, &u1)) / (sine * sine);
-    if s1.abs() <= a.half_length() && s2.abs() <= b.half_length() {
+    if s1.abs() <= ha && s2.abs() <= hb {
         // Step 3(c): cc1.
         let pt1 = a.center + u1 * s1;
         let pt2 = b.center + u2 * s2;
         let sign = if d.dot(&n) >= 0.0 { 1.0 } else { -1.0 };
         let normal = unit_or(pt2 - pt1, n * sign);
-        return Some(CylinderContact::Cc1(Contact {
+        return Some(Some(CylinderContact::Cc1(Contact {
             point: 0.5 * (pt1 + pt2),
             normal,
             depth: a.radius + b.radius - rho,
-        }));
+        })));
     }
-    // Steps 3(c) i–iii: all intersections involving a base.
+    None
+}
+
+/// Algorithm 4, steps 3(c) i–iii: all intersections involving a base (or the first one
+/// with `first_only`).
+fn base_contacts(a: &Cylinder, b: &Cylinder, first_only: bool) -> Option<CylinderContact> {
     let mut found = Vec::new();
     for end in [End::Plus, End::Minus] {
         if let Some(contact) = intersect_disk_cylinder_side(a, &b.end_disk(end)) {
@@ -926,6 +948,19 @@ pub fn overlaps(a: &Shape, b: &Shape) -> bool {
             intersect_sphere_cylinder(s, c).is_some()
         }
         (Shape::Cylinder(c), Shape::Cylinder(e)) => cylinder_cylinder(c, e, true).is_some(),
+    }
+}
+
+/// [`overlaps`] without the base tests of two cylinders (disk–side and disk–disk, the
+/// costly part of Algorithm 4): `Some(answer)` when the cheaper steps decide, which they do
+/// for every pair involving a sphere; `None` when only [`overlaps`] can tell. A caller
+/// with many pairs can look for a decided intersection first.
+pub fn overlaps_decided_early(a: &Shape, b: &Shape) -> Option<bool> {
+    match (a, b) {
+        (Shape::Cylinder(c), Shape::Cylinder(e)) => {
+            cylinder_cylinder_early(c, e).map(|found| found.is_some())
+        }
+        _ => Some(overlaps(a, b)),
     }
 }
 

@@ -279,7 +279,7 @@ impl CellGrid {
 /// call on the baseline x86-64 target (no SSE4.1 `roundsd`), 3 % of a polydisperse run's
 /// time in the neighbour search (perf, BENCHMARKS.md).
 #[inline]
-fn floor_to_i64(x: f64) -> i64 {
+pub(crate) fn floor_to_i64(x: f64) -> i64 {
     let truncated = x as i64;
     truncated - i64::from((truncated as f64) > x)
 }

@@ -6,10 +6,11 @@
 //!
 //! A mixture is a list of bodies ([`Shape`]: spheres `S(p, r)` and cylinders `C(p, r, l)`)
 //! in a [`PeriodicBox`]. Every intersection question goes to the exact typed tests of
-//! [`crate::geometry::cylinder`]; candidate pairs come from a [`CellGrid`] over the wrapped
-//! centres with cells as wide as the largest bounding diameter, and every periodic image
-//! of a partner whose bounding sphere can reach the body is tested — across faces, edges
-//! and corners, and a long cylinder against its own images.
+//! [`crate::geometry::cylinder`]; the relaxer's candidate pairs come from a [`CellGrid`]
+//! over the wrapped centres with cells as wide as the largest bounding diameter, RSA's from
+//! a capsule-aware index ([`rsa::CapsuleGrid`]); every periodic image of a partner that can
+//! reach the body is tested — across faces, edges and corners, and a long cylinder against
+//! its own images.
 //!
 //! # Sizes (Algorithm 5, steps 1–2)
 //!
@@ -431,43 +432,26 @@ impl PeriodicPairs {
             });
     }
 
-    /// Whether `hit(j, offset)` holds for some image found by [`Self::for_each_image`]
-    /// (no skin); stops testing at the first one (RSA rejections).
-    pub fn any_image(
-        &self,
-        bodies: &[Shape],
-        probe: &Shape,
-        mut hit: impl FnMut(usize, Vec3) -> bool,
-    ) -> bool {
-        let p = probe.center();
-        let rp = probe.bounding_radius();
-        let mut found = false;
-        self.grid
-            .for_each_within(0, &p, rp + self.max_bounding_radius, |j| {
-                if found {
-                    return;
-                }
-                let reach = rp + bodies[j].bounding_radius();
-                let dr = bodies[j].center() - p;
-                let mut near = dr;
-                self.boundary.minimum_image(&mut near);
-                for_each_lattice_vector(&self.boundary.len, &near, reach, |shift| {
-                    found = found || hit(j, near - dr + shift);
-                });
-            });
-        found
-    }
-
     /// Lattice vectors `t ≠ 0`, one of each pair `±t`, by which a body of bounding radius
     /// `radius` could meet its own image.
-    pub fn self_image_offsets(&self, radius: f64, mut f: impl FnMut(Vec3)) {
-        for_each_lattice_vector(&self.boundary.len, &Vec3::zeros(), 2.0 * radius, |t| {
-            let first_nonzero = t.iter().find(|x| **x != 0.0);
-            if first_nonzero.is_some_and(|x| *x > 0.0) {
-                f(t);
-            }
-        });
+    pub fn self_image_offsets(&self, radius: f64, f: impl FnMut(Vec3)) {
+        self_image_offsets(&self.boundary, radius, f);
     }
+}
+
+/// Lattice vectors `t ≠ 0` of `boundary`, one of each pair `±t`, by which a body of
+/// bounding radius `radius` could meet its own image (`‖t‖ < 2 radius`).
+pub fn self_image_offsets(boundary: &PeriodicBox, radius: f64, mut f: impl FnMut(Vec3)) {
+    if 2.0 * radius <= boundary.len.min() {
+        // Every lattice vector t ≠ 0 has ‖t‖ ≥ the shortest edge.
+        return;
+    }
+    for_each_lattice_vector(&boundary.len, &Vec3::zeros(), 2.0 * radius, |t| {
+        let first_nonzero = t.iter().find(|x| **x != 0.0);
+        if first_nonzero.is_some_and(|x| *x > 0.0) {
+            f(t);
+        }
+    });
 }
 
 /// Calls `f(t)` for each lattice vector `t = (n_x L_x, n_y L_y, n_z L_z)` with
