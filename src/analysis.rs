@@ -1,7 +1,9 @@
-//! Descriptions of a packing for `densepack verify`: the gap histogram and the sieve curve
-//! against a grading curve. Pure functions of the written packing.
+//! Descriptions of a packing for `densepack verify` and `densepack plot`: the gap histogram,
+//! the sieve curve against a grading curve, the size histogram and plane sections. Pure
+//! functions of the written packing.
 
-use crate::io::packing::{Packing, ParticleRecord};
+use crate::io::export::{bounding_sphere, container_bounds, periodic_axes, rotation_of};
+use crate::io::packing::{ContainerRecord, Packing, ParticleRecord};
 use crate::protocol::take_phase::GradingCurve;
 
 /// One bin of the gap histogram: particles whose nearest relative gap lies in `[lo, hi)`.
@@ -108,6 +110,342 @@ pub fn sieve_curve(packing: &Packing, curve: &GradingCurve, d_min: f64) -> (Vec<
         })
         .collect();
     (points, worst)
+}
+
+/// One bin of the size histogram: particles whose sieve diameter ([`sieve_diameter`]) lies
+/// in `[lo, hi)` (the last bin includes `hi`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct SizeBin {
+    /// Lower edge (diameter, in the packing's unit).
+    pub lo: f64,
+    /// Upper edge.
+    pub hi: f64,
+    /// Number of particles.
+    pub count: usize,
+}
+
+/// Histogram of the particles' sieve diameters in `bins ≥ 1` bins of equal width in `ln d`
+/// from the smallest to the largest diameter (grading curves are logarithmic in `d`). Equal
+/// diameters give one bin from 0.95 d to 1.05 d; an empty packing, no bins.
+pub fn size_histogram(packing: &Packing, bins: usize) -> Vec<SizeBin> {
+    let sizes: Vec<f64> = packing.particles.iter().map(sieve_diameter).collect();
+    let (lo, hi) = sizes
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &d| {
+            (lo.min(d), hi.max(d))
+        });
+    if sizes.is_empty() {
+        return Vec::new();
+    }
+    if hi <= lo * (1.0 + 1e-9) {
+        return vec![SizeBin {
+            lo: 0.95 * lo,
+            hi: 1.05 * hi,
+            count: sizes.len(),
+        }];
+    }
+    let bins = bins.max(1);
+    let step = (hi / lo).ln() / bins as f64;
+    let edge = |k: usize| {
+        if k == bins {
+            hi
+        } else {
+            lo * (step * k as f64).exp()
+        }
+    };
+    let mut out: Vec<SizeBin> = (0..bins)
+        .map(|k| SizeBin {
+            lo: edge(k),
+            hi: edge(k + 1),
+            count: 0,
+        })
+        .collect();
+    for d in sizes {
+        let k = (((d / lo).ln() / step) as usize).min(bins - 1);
+        out[k].count += 1;
+    }
+    out
+}
+
+/// The in-plane axes `(horizontal, vertical)` of a section normal to axis `axis` (0 = x,
+/// 1 = y, 2 = z): x → (y, z), y → (x, z), z → (x, y).
+pub fn section_axes(axis: usize) -> [usize; 2] {
+    match axis {
+        0 => [1, 2],
+        1 => [0, 2],
+        _ => [0, 1],
+    }
+}
+
+/// What a section plane cuts out of one particle (or of one of its periodic images), in the
+/// plane's coordinates ([`section_axes`]).
+#[derive(Clone, Debug, PartialEq)]
+pub enum SectionCut {
+    /// A sphere cut as a disc.
+    Disc {
+        /// Centre.
+        center: [f64; 2],
+        /// Radius `√(r² − t²)` at distance `t` of the plane from the sphere's centre.
+        radius: f64,
+        /// Index of the particle in the packing.
+        particle: usize,
+    },
+    /// An ellipsoid cut as an ellipse.
+    Ellipse {
+        /// Centre.
+        center: [f64; 2],
+        /// Semi-axes.
+        semi_axes: [f64; 2],
+        /// Angle of the first semi-axis from the horizontal axis (radians).
+        angle: f64,
+        /// Index of the particle in the packing.
+        particle: usize,
+    },
+}
+
+impl SectionCut {
+    /// Index of the particle cut.
+    pub fn particle(&self) -> usize {
+        match self {
+            Self::Disc { particle, .. } | Self::Ellipse { particle, .. } => *particle,
+        }
+    }
+
+    /// Centre of the cut.
+    pub fn center(&self) -> [f64; 2] {
+        match self {
+            Self::Disc { center, .. } | Self::Ellipse { center, .. } => *center,
+        }
+    }
+
+    /// Half-widths of the cut's axis-aligned bounding box.
+    pub fn half_extent(&self) -> [f64; 2] {
+        match self {
+            Self::Disc { radius, .. } => [*radius; 2],
+            Self::Ellipse {
+                semi_axes: [a, b],
+                angle,
+                ..
+            } => {
+                let (s, c) = angle.sin_cos();
+                [
+                    ((a * c).powi(2) + (b * s).powi(2)).sqrt(),
+                    ((a * s).powi(2) + (b * c).powi(2)).sqrt(),
+                ]
+            }
+        }
+    }
+
+    /// The same cut moved by `offset`.
+    fn shifted(&self, offset: [f64; 2]) -> Self {
+        let mut cut = self.clone();
+        match &mut cut {
+            Self::Disc { center, .. } | Self::Ellipse { center, .. } => {
+                center[0] += offset[0];
+                center[1] += offset[1];
+            }
+        }
+        cut
+    }
+}
+
+/// The outline of the container in a section plane.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SectionOutline {
+    /// A rectangle (a box, or a cylinder cut along its axis).
+    Rectangle {
+        /// Lower corner.
+        min: [f64; 2],
+        /// Upper corner.
+        max: [f64; 2],
+    },
+    /// A circle (a cylinder cut across its axis).
+    Circle {
+        /// Centre.
+        center: [f64; 2],
+        /// Radius.
+        radius: f64,
+    },
+}
+
+/// A plane section of a packing.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Section {
+    /// The container's outline.
+    pub outline: SectionOutline,
+    /// Every cut particle, with the periodic images that reach into the container: along the
+    /// plane normal an image of a particle across a periodic face may be what the plane cuts,
+    /// and in the plane a cut that crosses a periodic face also appears at the opposite face.
+    pub cuts: Vec<SectionCut>,
+}
+
+/// Why a section cannot be made.
+#[derive(Debug, thiserror::Error)]
+pub enum SectionError {
+    /// The plane misses the container.
+    #[error("--at = {at}: the plane {axis} = {at} lies outside the container, whose {axis} range is [{lo}, {hi}]")]
+    Outside {
+        /// Axis name.
+        axis: char,
+        /// Plane position.
+        at: f64,
+        /// Container's lower bound on the axis.
+        lo: f64,
+        /// Upper bound.
+        hi: f64,
+    },
+    /// A particle shape whose sections are not drawn.
+    #[error("particle {index} is a cylinder: sections of cylinders are not supported (spheres and ellipsoids are)")]
+    Unsupported {
+        /// Index of the particle.
+        index: usize,
+    },
+}
+
+/// The section of `packing` by the plane `x[axis] = at` (`axis`: 0 = x, 1 = y, 2 = z).
+/// A sphere of radius `r` at distance `t` from the plane is cut as a disc of radius
+/// `√(r² − t²)`. An ellipsoid `(x − c)ᵀ A (x − c) ≤ 1` with `A = R diag(a⁻²) Rᵀ` is cut as
+/// the ellipse `(p − p*)ᵀ M (p − p*) ≤ ρ`, where `M` is the in-plane block of `A`, `b` its
+/// in-plane column on the normal axis, `p* = −t M⁻¹ b` and `ρ = 1 − t² (A_nn − bᵀ M⁻¹ b)`
+/// (completing the square in the in-plane coordinates); its semi-axes are `√(ρ/λ)` for the
+/// eigenvalues `λ` of `M`.
+pub fn section(packing: &Packing, axis: usize, at: f64) -> Result<Section, SectionError> {
+    let [h, v] = section_axes(axis);
+    let (lo, hi) = container_bounds(&packing.container);
+    if !(at >= lo[axis] && at <= hi[axis]) {
+        return Err(SectionError::Outside {
+            axis: ['x', 'y', 'z'][axis.min(2)],
+            at,
+            lo: lo[axis],
+            hi: hi[axis],
+        });
+    }
+    let outline = match &packing.container {
+        ContainerRecord::Cylinder {
+            base_center,
+            radius,
+            ..
+        } if axis == 2 => SectionOutline::Circle {
+            center: [base_center[0], base_center[1]],
+            radius: *radius,
+        },
+        ContainerRecord::Cylinder {
+            base_center,
+            radius,
+            ..
+        } => {
+            // Cut along the axis: a rectangle as wide as the chord at this plane.
+            let half = (radius * radius - (at - base_center[axis]).powi(2))
+                .max(0.0)
+                .sqrt();
+            SectionOutline::Rectangle {
+                min: [base_center[h] - half, lo[2]],
+                max: [base_center[h] + half, hi[2]],
+            }
+        }
+        ContainerRecord::Box { min, max, .. } => SectionOutline::Rectangle {
+            min: [min[h], min[v]],
+            max: [max[h], max[v]],
+        },
+    };
+    let periodic = periodic_axes(&packing.container);
+    let length: Vec<f64> = (0..3).map(|k| hi[k] - lo[k]).collect();
+    let images = |k: usize| -> &'static [f64] {
+        if periodic[k] {
+            &[-1.0, 0.0, 1.0]
+        } else {
+            &[0.0]
+        }
+    };
+    let mut cuts = Vec::new();
+    for (index, p) in packing.particles.iter().enumerate() {
+        if matches!(p, ParticleRecord::Cylinder { .. }) {
+            return Err(SectionError::Unsupported { index });
+        }
+        for &m in images(axis) {
+            let (center, _) = bounding_sphere(p);
+            // Distance of the plane from the (image's) centre along the normal.
+            let t = at - (center[axis] + m * length[axis]);
+            if let Some(cut) = plane_cut(p, index, [center[h], center[v]], [h, v, axis], t) {
+                // In-plane images of a cut that crosses a periodic face.
+                let extent = cut.half_extent();
+                let c = cut.center();
+                let shifts = |k: usize, n: usize| -> Vec<f64> {
+                    let mut s = vec![0.0];
+                    if periodic[n] && c[k] - extent[k] < lo[n] {
+                        s.push(length[n]);
+                    }
+                    if periodic[n] && c[k] + extent[k] > hi[n] {
+                        s.push(-length[n]);
+                    }
+                    s
+                };
+                for dx in shifts(0, h) {
+                    for dy in shifts(1, v) {
+                        cuts.push(cut.shifted([dx, dy]));
+                    }
+                }
+            }
+        }
+    }
+    Ok(Section { outline, cuts })
+}
+
+/// The cut of particle `p` (not a cylinder) by a plane at signed distance `t` from its centre
+/// along axis `axes[2]`, or `None` when the plane misses it; `center` is the particle's centre
+/// in the plane coordinates `axes[0], axes[1]`.
+fn plane_cut(
+    p: &ParticleRecord,
+    particle: usize,
+    center: [f64; 2],
+    axes: [usize; 3],
+    t: f64,
+) -> Option<SectionCut> {
+    match p {
+        ParticleRecord::Sphere { radius, .. } => {
+            let r2 = radius * radius - t * t;
+            (r2 > 0.0).then(|| SectionCut::Disc {
+                center,
+                radius: r2.sqrt(),
+                particle,
+            })
+        }
+        ParticleRecord::Ellipsoid {
+            semi_axes,
+            orientation,
+            ..
+        } => {
+            let r = rotation_of(orientation).to_rotation_matrix();
+            let inverse_squares = nalgebra::Matrix3::from_diagonal(&nalgebra::Vector3::new(
+                semi_axes[0].powi(-2),
+                semi_axes[1].powi(-2),
+                semi_axes[2].powi(-2),
+            ));
+            let a = r.matrix() * inverse_squares * r.matrix().transpose();
+            let [h, v, n] = axes;
+            let m = nalgebra::Matrix2::new(a[(h, h)], a[(h, v)], a[(v, h)], a[(v, v)]);
+            let b = nalgebra::Vector2::new(a[(h, n)], a[(v, n)]);
+            // M is positive definite (a block of a positive definite matrix).
+            let m_inv_b = m.cholesky()?.solve(&b);
+            let rho = 1.0 - t * t * (a[(n, n)] - b.dot(&m_inv_b));
+            if rho <= 0.0 {
+                return None;
+            }
+            let offset = -t * m_inv_b;
+            let eigen = nalgebra::SymmetricEigen::new(m);
+            let first = eigen.eigenvectors.column(0);
+            Some(SectionCut::Ellipse {
+                center: [center[0] + offset[0], center[1] + offset[1]],
+                semi_axes: [
+                    (rho / eigen.eigenvalues[0]).sqrt(),
+                    (rho / eigen.eigenvalues[1]).sqrt(),
+                ],
+                angle: first[1].atan2(first[0]),
+                particle,
+            })
+        }
+        ParticleRecord::Cylinder { .. } => None,
+    }
 }
 
 #[cfg(test)]

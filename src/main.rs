@@ -44,6 +44,12 @@ enum Command {
         /// finished stage) instead of the live line.
         #[arg(long)]
         log_json: bool,
+        /// Also write every progress record (one JSON line per time barrier, the records of
+        /// --log-json with Δd in gap stages, and one per finished stage) to FILE when the run
+        /// ends, also when it fails; `densepack plot convergence FILE` draws it. Sphere and
+        /// ellipsoid scenes.
+        #[arg(long, value_name = "FILE")]
+        run_log: Option<PathBuf>,
         /// Write a checkpoint to FILE during the run (atomically, at a time barrier, every
         /// --checkpoint-every seconds); continue a killed run with --resume FILE. Sphere
         /// scenes only.
@@ -80,6 +86,8 @@ enum Command {
     Take(cli::take::TakeArgs),
     /// Write a commented sample scene.
     Init(cli::init::InitArgs),
+    /// Draw an SVG figure: sieve curve, size histogram, section, or convergence of a run.
+    Plot(cli::plot::PlotArgs),
 }
 
 fn main() -> ExitCode {
@@ -91,13 +99,14 @@ fn main() -> ExitCode {
             let start = |on_stage: &mut OnStage, on_progress: &mut OnProgress| {
                 run_scene_observed(&scene, on_stage, on_progress)
             };
-            run(start, None, false, false)
+            run(start, None, false, false, None)
         }
         Some(Command::Run {
             scene,
             out,
             quiet,
             log_json,
+            run_log,
             checkpoint,
             checkpoint_every,
             resume,
@@ -109,6 +118,10 @@ fn main() -> ExitCode {
             }
             if let Some(Err(e)) = checkpoint.as_deref().map(check_output_path) {
                 eprintln!("error: --checkpoint: {e}");
+                return ExitCode::from(2);
+            }
+            if let Some(Err(e)) = run_log.as_deref().map(check_output_path) {
+                eprintln!("error: --run-log: {e}");
                 return ExitCode::from(2);
             }
             if let Some(path) = resume {
@@ -126,7 +139,7 @@ fn main() -> ExitCode {
                 let start = |on_stage: &mut OnStage, on_progress: &mut OnProgress| {
                     resume_run(&file, Some(&plan), on_stage, on_progress)
                 };
-                return run(start, Some(out), quiet, log_json);
+                return run(start, Some(out), quiet, log_json, run_log);
             }
             let scene = scene.expect("clap requires a scene without --resume");
             let text = match std::fs::read_to_string(&scene) {
@@ -145,7 +158,14 @@ fn main() -> ExitCode {
                         }
                         None => run_scene_observed(&s, on_stage, on_progress),
                     };
-                    run(start, Some(out), quiet, log_json)
+                    run(start, Some(out), quiet, log_json, run_log)
+                }
+                Ok(AnyScene::Mixture(_)) if run_log.is_some() => {
+                    eprintln!(
+                        "error: --run-log: mixture scenes (RSA or relaxation) have no time \
+                         barriers to log"
+                    );
+                    ExitCode::from(2)
                 }
                 Ok(AnyScene::Mixture(_)) if checkpoint.is_some() => {
                     eprintln!(
@@ -170,6 +190,7 @@ fn main() -> ExitCode {
         Some(Command::Export(args)) => cli::export::run(&args),
         Some(Command::Take(args)) => cli::take::run(&args),
         Some(Command::Init(args)) => cli::init::run(&args),
+        Some(Command::Plot(args)) => cli::plot::run(&args),
     }
 }
 
@@ -209,15 +230,20 @@ fn run(
     out: Option<PathBuf>,
     quiet: bool,
     log_json: bool,
+    run_log: Option<PathBuf>,
 ) -> ExitCode {
-    let reporter = std::cell::RefCell::new(cli::progress::Reporter::new(quiet, log_json));
+    let reporter = std::cell::RefCell::new(cli::progress::Reporter::new(quiet, log_json, run_log));
     let result = start(
         &mut |k: usize, r: &StageReport| reporter.borrow_mut().stage_done(k, r),
         &mut |k: usize, p: &Progress| reporter.borrow_mut().progress(k, p),
     );
     let reporter = reporter.into_inner();
-    reporter.finish();
-    match result {
+    // The log of a failed run is written too: it shows where the run got stuck.
+    let logged = reporter.finish();
+    if let Err(e) = &logged {
+        eprintln!("error: {e}");
+    }
+    let code = match result {
         Ok(outcome) => {
             let s = &outcome.packing.stats;
             if !quiet {
@@ -255,7 +281,11 @@ fn run(
             }
             ExitCode::from(1)
         }
+    };
+    if logged.is_err() && code == ExitCode::SUCCESS {
+        return ExitCode::from(1);
     }
+    code
 }
 
 /// Runs a sphere + cylinder mixture scene and writes the verified packing.

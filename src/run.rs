@@ -577,13 +577,14 @@ fn run_stages<S: Collidable, B: Boundary + SceneContainer, Q: EventQueue>(
         let mut stride = 1usize;
         let mut barrier = 0usize;
         let report = kernel.continue_stage(&stage, progress, &mut |kernel, p| {
-            let observed = p.observed(kernel);
+            let mut observed = p.observed(kernel);
+            observed.gap = gap_rate.map(|rate| 2.0 * rate * observed.stage_time);
             on_progress(k, &observed);
-            if let Some(rate) = gap_rate {
+            if let Some(gap) = observed.gap {
                 if barrier % stride == 0 {
                     gap_history.push(GapSample {
                         stage_time: observed.stage_time,
-                        gap: 2.0 * rate * observed.stage_time,
+                        gap,
                         events: observed.counts.events,
                         wall_seconds: observed.wall_seconds,
                         reduced_pressure: observed.reduced_pressure,

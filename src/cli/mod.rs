@@ -2,6 +2,7 @@
 
 pub mod export;
 pub mod init;
+pub mod plot;
 pub mod progress;
 pub mod take;
 pub mod verify;

@@ -1,9 +1,14 @@
 //! Progress of a run on stderr: a live line when stderr is a terminal (indicatif), one JSON
 //! object per line with `--log-json`, nothing with `--quiet`. Data goes to stdout only.
+//!
+//! `--run-log FILE` keeps the same JSON records, one per time barrier (not thinned to the
+//! tick) and one per finished stage, and writes them to FILE atomically when the run ends
+//! (also when it fails): the input of `densepack plot convergence`.
 
 use densepack::kernel::{Progress, StageReport};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
+use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 /// Fewest seconds between two progress ticks.
@@ -21,11 +26,58 @@ enum Sink {
 pub struct Reporter {
     sink: Sink,
     last_tick: Option<Instant>,
+    run_log: Option<RunLog>,
+}
+
+/// The records of `--run-log`, kept in memory until the run ends (a few hundred bytes per
+/// time barrier).
+struct RunLog {
+    path: PathBuf,
+    lines: String,
+}
+
+impl RunLog {
+    fn push(&mut self, record: &serde_json::Value) {
+        self.lines += &record.to_string();
+        self.lines.push('\n');
+    }
+}
+
+/// The JSON record of a progress tick (`--log-json`, `--run-log`): `{"type": "progress",
+/// "stage", "wall_seconds", "stage_time", "packing_fraction", "reduced_pressure", "gap",
+/// "events", "collisions", "events_per_second", "eta_seconds"}`; NaN and infinities are
+/// written as null.
+pub fn progress_record(stage: usize, p: &Progress) -> serde_json::Value {
+    let rate = p.counts.events as f64 / p.wall_seconds.max(1e-9);
+    // Simulated time advances roughly linearly in wall time within a stage.
+    let eta = p
+        .goal_time
+        .filter(|_| p.stage_time > 0.0)
+        .map(|goal| (goal - p.stage_time).max(0.0) * p.wall_seconds / p.stage_time);
+    serde_json::json!({
+        "type": "progress",
+        "stage": stage,
+        "wall_seconds": p.wall_seconds,
+        "stage_time": p.stage_time,
+        "packing_fraction": p.packing_fraction,
+        "reduced_pressure": finite(p.reduced_pressure),
+        "gap": p.gap,
+        "events": p.counts.events,
+        "collisions": p.counts.collisions,
+        "events_per_second": rate,
+        "eta_seconds": eta,
+    })
+}
+
+/// The JSON record of a finished stage: `{"type": "stage", "stage", "report"}`.
+pub fn stage_record(stage: usize, r: &StageReport) -> serde_json::Value {
+    serde_json::json!({"type": "stage", "stage": stage, "report": r})
 }
 
 impl Reporter {
-    /// A reporter for `--quiet` / `--log-json` / the default (a live line on a terminal).
-    pub fn new(quiet: bool, log_json: bool) -> Self {
+    /// A reporter for `--quiet` / `--log-json` / the default (a live line on a terminal),
+    /// keeping every record for `--run-log` when `run_log` is given.
+    pub fn new(quiet: bool, log_json: bool, run_log: Option<PathBuf>) -> Self {
         let sink = if log_json {
             Sink::Json
         } else if quiet {
@@ -44,11 +96,18 @@ impl Reporter {
         Reporter {
             sink,
             last_tick: None,
+            run_log: run_log.map(|path| RunLog {
+                path,
+                lines: String::new(),
+            }),
         }
     }
 
     /// Called at every time barrier; reports at most every [`TICK`].
     pub fn progress(&mut self, stage: usize, p: &Progress) {
+        if let Some(log) = &mut self.run_log {
+            log.push(&progress_record(stage, p));
+        }
         if matches!(self.sink, Sink::Quiet | Sink::Plain) {
             return;
         }
@@ -57,35 +116,20 @@ impl Reporter {
             return;
         }
         self.last_tick = Some(now);
-        let rate = p.counts.events as f64 / p.wall_seconds.max(1e-9);
-        // Simulated time advances roughly linearly in wall time within a stage.
-        let eta = p
-            .goal_time
-            .filter(|_| p.stage_time > 0.0)
-            .map(|goal| (goal - p.stage_time).max(0.0) * p.wall_seconds / p.stage_time);
         match &self.sink {
-            Sink::Json => eprintln!(
-                "{}",
-                serde_json::json!({
-                    "type": "progress",
-                    "stage": stage,
-                    "wall_seconds": p.wall_seconds,
-                    "stage_time": p.stage_time,
-                    "packing_fraction": p.packing_fraction,
-                    "reduced_pressure": finite(p.reduced_pressure),
-                    "events": p.counts.events,
-                    "collisions": p.counts.collisions,
-                    "events_per_second": rate,
-                    "eta_seconds": eta,
-                })
-            ),
-            Sink::Bar(bar) => bar.set_message(format!(
-                "stage {stage}: φ {:.5}  Z {:.3e}  {:.2} M events/s{}",
-                p.packing_fraction,
-                p.reduced_pressure,
-                rate / 1e6,
-                eta.map_or(String::new(), |s| format!("  ETA {s:.0} s"))
-            )),
+            Sink::Json => eprintln!("{}", progress_record(stage, p)),
+            Sink::Bar(bar) => {
+                let record = progress_record(stage, p);
+                let eta = record["eta_seconds"].as_f64();
+                bar.set_message(format!(
+                    "stage {stage}: φ {:.5}  Z {:.3e}{}  {:.2} M events/s{}",
+                    p.packing_fraction,
+                    p.reduced_pressure,
+                    p.gap.map_or(String::new(), |g| format!("  Δd {g:.4e}")),
+                    record["events_per_second"].as_f64().unwrap_or(0.0) / 1e6,
+                    eta.map_or(String::new(), |s| format!("  ETA {s:.0} s"))
+                ))
+            }
             Sink::Quiet | Sink::Plain => {}
         }
     }
@@ -101,21 +145,28 @@ impl Reporter {
             r.packing_fraction,
             r.reduced_pressure
         );
+        if let Some(log) = &mut self.run_log {
+            log.push(&stage_record(k, r));
+        }
         match &self.sink {
             Sink::Quiet => {}
-            Sink::Json => eprintln!(
-                "{}",
-                serde_json::json!({"type": "stage", "stage": k, "report": r})
-            ),
+            Sink::Json => eprintln!("{}", stage_record(k, r)),
             Sink::Plain => eprintln!("{line}"),
             Sink::Bar(bar) => bar.println(line),
         }
     }
 
-    /// Removes the live line.
-    pub fn finish(&self) {
+    /// Removes the live line and writes the run log (atomically), if one was asked for.
+    pub fn finish(&self) -> Result<(), String> {
         if let Sink::Bar(bar) = &self.sink {
             bar.finish_and_clear();
+        }
+        match &self.run_log {
+            None => Ok(()),
+            Some(log) => densepack::io::packing::write_atomically(&log.path, |w| {
+                std::io::Write::write_all(w, log.lines.as_bytes())
+            })
+            .map_err(|e| format!("--run-log {}: {e}", log.path.display())),
         }
     }
 }

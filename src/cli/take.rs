@@ -114,6 +114,20 @@ pub fn curve_of(text: &str) -> Result<(GradingCurve, String), String> {
     Ok((curve, name))
 }
 
+/// A short name of a grading curve: `DIN 1045-2 B16`, `Fuller q = 0.5, d_max = 16 mm`,
+/// `sieve table 2–16 mm`.
+pub fn curve_name(spec: &GradingSpec) -> String {
+    match spec {
+        GradingSpec::Din { name } => format!("DIN 1045-2 {name:?}"),
+        GradingSpec::Fuller { q, d_max } => format!("Fuller q = {q}, d_max = {d_max} mm"),
+        GradingSpec::Table { sizes, .. } => format!(
+            "sieve table {}–{} mm",
+            sizes.first().copied().unwrap_or(f64::NAN),
+            sizes.last().copied().unwrap_or(f64::NAN)
+        ),
+    }
+}
+
 /// The grading-curve description (as a scene's `particles.grading` holds it) of a DIN name,
 /// `fuller:Q:D_MAX` or a TOML file with a `grading` table, with a description.
 fn spec_of(text: &str) -> Result<(GradingSpec, String), String> {
@@ -125,8 +139,10 @@ fn spec_of(text: &str) -> Result<(GradingSpec, String), String> {
         ("B16", DinCurve::B16),
         ("C16", DinCurve::C16),
     ];
-    if let Some((name, c)) = din.iter().find(|(n, _)| n.eq_ignore_ascii_case(text)) {
-        return Ok((GradingSpec::Din { name: *c }, format!("DIN 1045-2 {name}")));
+    if let Some((_, c)) = din.iter().find(|(n, _)| n.eq_ignore_ascii_case(text)) {
+        let spec = GradingSpec::Din { name: *c };
+        let name = curve_name(&spec);
+        return Ok((spec, name));
     }
     if let Some(rest) = text.strip_prefix("fuller:") {
         let parts: Vec<&str> = rest.split(':').collect();
@@ -136,10 +152,9 @@ fn spec_of(text: &str) -> Result<(GradingSpec, String), String> {
         let q: f64 = q.parse().map_err(|e| format!("{text}: Q: {e}"))?;
         let d_max: f64 = d_max.parse().map_err(|e| format!("{text}: D_MAX: {e}"))?;
         GradingCurve::fuller(q, d_max).map_err(|e| e.to_string())?;
-        return Ok((
-            GradingSpec::Fuller { q, d_max },
-            format!("Fuller q = {q}, d_max = {d_max} mm"),
-        ));
+        let spec = GradingSpec::Fuller { q, d_max };
+        let name = curve_name(&spec);
+        return Ok((spec, name));
     }
     let path = Path::new(text);
     if !path.exists() {

@@ -1,9 +1,45 @@
 //! `densepack verify PACKING.json`: the independent check and a description of the packing.
 
-use densepack::analysis::{gap_histogram, sieve_curve, sieve_diameter};
+use densepack::analysis::{gap_histogram, sieve_curve, sieve_diameter, SievePoint};
 use densepack::io::packing::Packing;
+use densepack::protocol::take_phase::GradingCurve;
 use std::path::Path;
 use std::process::ExitCode;
+
+/// The sieve curve of `packing` against the grading curve `grading` (a DIN name,
+/// `fuller:Q:D_MAX` or a TOML file with a `grading` table) cut off at `d_min` (default: the
+/// smallest particle): the curve's name, `d_min`, the points and the largest deviation.
+pub fn sieve_against(
+    packing: &Packing,
+    grading: &str,
+    d_min: Option<f64>,
+) -> Result<(String, f64, Vec<SievePoint>, f64), String> {
+    let (curve, name) = super::take::curve_of(grading)?;
+    sieve_against_curve(packing, &curve, name, d_min)
+}
+
+/// [`sieve_against`] for a curve already built.
+pub fn sieve_against_curve(
+    packing: &Packing,
+    curve: &GradingCurve,
+    name: String,
+    d_min: Option<f64>,
+) -> Result<(String, f64, Vec<SievePoint>, f64), String> {
+    let smallest = packing
+        .particles
+        .iter()
+        .map(sieve_diameter)
+        .fold(f64::INFINITY, f64::min);
+    let d_min = d_min.unwrap_or(smallest);
+    if !(d_min > 0.0 && d_min < curve.d_max()) {
+        return Err(format!(
+            "--d-min = {d_min} must be > 0 and below the curve's d_max = {}",
+            curve.d_max()
+        ));
+    }
+    let (points, worst) = sieve_curve(packing, curve, d_min);
+    Ok((name, d_min, points, worst))
+}
 
 /// Runs `verify`; exit 1 on a violated constraint, 2 on an unreadable packing or curve.
 pub fn run(path: &Path, json: bool, grading: Option<&str>, d_min: Option<f64>) -> ExitCode {
@@ -14,31 +50,13 @@ pub fn run(path: &Path, json: bool, grading: Option<&str>, d_min: Option<f64>) -
             return ExitCode::from(2);
         }
     };
-    let sieve = match grading {
+    let sieve = match grading.map(|text| sieve_against(&packing, text, d_min)) {
         None => None,
-        Some(text) => match super::take::curve_of(text) {
-            Ok((curve, name)) => {
-                let smallest = packing
-                    .particles
-                    .iter()
-                    .map(sieve_diameter)
-                    .fold(f64::INFINITY, f64::min);
-                let d_min = d_min.unwrap_or(smallest);
-                if !(d_min > 0.0 && d_min < curve.d_max()) {
-                    eprintln!(
-                        "error: --d-min = {d_min} must be > 0 and below the curve's d_max = {}",
-                        curve.d_max()
-                    );
-                    return ExitCode::from(2);
-                }
-                let (points, worst) = sieve_curve(&packing, &curve, d_min);
-                Some((name, d_min, points, worst))
-            }
-            Err(e) => {
-                eprintln!("error: {e}");
-                return ExitCode::from(2);
-            }
-        },
+        Some(Ok(s)) => Some(s),
+        Some(Err(e)) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
     };
     let v = densepack::verify::verify(&packing);
     let histogram = gap_histogram(&v.nearest_gap_relative);

@@ -154,6 +154,10 @@ pub struct Progress {
     pub counts: EventCounts,
     /// Wall-clock seconds of the stage so far.
     pub wall_seconds: f64,
+    /// The gap Δd between the grains at their true sizes that a gap stage has opened so far
+    /// (twice the radius each grain gained, paper 001 Eq. 31); `None` outside gap stages.
+    /// The kernel does not know which stages open gaps: `crate::run` fills it in.
+    pub gap: Option<f64>,
 }
 
 /// Where a stage stands between two barrier intervals: everything the stage loop carries
@@ -201,6 +205,7 @@ impl StageProgress {
             reduced_pressure: self.last_z,
             counts: kernel.counters.since(&self.counts_before),
             wall_seconds: self.wall_seconds,
+            gap: None,
         }
     }
 }

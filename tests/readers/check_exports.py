@@ -6,11 +6,16 @@ Usage: check_exports.py KIND PACKING.json FILE [options]
         meshio reads the mesh; volumes per physical group (sum of tetrahedron volumes) must
         match the exact volumes computed here from the packing within the tolerance; on
         periodic axes the nodes of opposite faces must coincide after translation.
-  vtk   FILE.vtu   meshio reads it; points and radii equal the packing's.
-  csv   FILE.csv   numpy reads it; rows equal the packing's particles.
+  vtk   FILE.vtu   meshio reads it; points, radii, semi-axes, orientations, half axes and
+                   shape tensors equal the packing's (ellipsoid and cylinder values recomputed
+                   here from the quaternions and half axes).
+  csv   FILE.csv   numpy reads it; rows equal the packing's particles (spheres).
   npy   FILE.npy   numpy loads it; the labels equal a brute-force numpy voxelisation of the
   raw   FILE.raw   packing (shape/dtype from the FILE.json sidecar for raw), and the voxel
-                   packing fraction equals the sidecar's.
+                   packing fraction equals the sidecar's and the exact one within the
+                   resolution bound.
+Spheres, ellipsoids and cylinders are checked; exact volumes come from the packing JSON
+(4/3 pi r^3, 4/3 pi a b c, pi r^2 2|l|).
 Exit status 0 when every check passes; a failed check raises.
 """
 import json
@@ -20,14 +25,67 @@ import sys
 import numpy as np
 
 
-def load_packing(path):
+def load_packing(path, spheres_only=True):
     with open(path) as f:
         p = json.load(f)
     spheres = [q for q in p["particles"] if q["type"] == "sphere"]
-    assert len(spheres) == len(p["particles"]), "only spheres are checked here"
-    centres = np.array([q["center"] for q in spheres], dtype=float)
+    if spheres_only:
+        assert len(spheres) == len(p["particles"]), "only spheres are checked here"
+    centres = np.array([q["center"] for q in spheres], dtype=float).reshape(-1, 3)
     radii = np.array([q["radius"] for q in spheres], dtype=float)
     return p, centres, radii
+
+
+def rotation(q):
+    """Rotation matrix of the unit quaternion [w, x, y, z] (body -> world)."""
+    w, x, y, z = q
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+def particle_volume(q, scale=1.0):
+    """Exact volume of a particle record, its lengths scaled by `scale`."""
+    if q["type"] == "sphere":
+        return 4.0 / 3.0 * math.pi * (scale * q["radius"]) ** 3
+    if q["type"] == "ellipsoid":
+        a, b, c = (scale * x for x in q["semi_axes"])
+        return 4.0 / 3.0 * math.pi * a * b * c
+    assert q["type"] == "cylinder", q["type"]
+    return math.pi * (scale * q["radius"]) ** 2 * 2.0 * scale * float(np.linalg.norm(q["half_axis"]))
+
+
+def inside(q, d):
+    """Whether the offsets d (..., 3) from the particle's centre lie inside particle q."""
+    if q["type"] == "sphere":
+        return np.einsum("...k,...k->...", d, d) <= q["radius"] ** 2
+    if q["type"] == "ellipsoid":
+        body = d @ rotation(q["orientation"])          # R^T d for each offset
+        return level_ellipsoid(q, body) <= 1.0
+    l = np.array(q["half_axis"], dtype=float)
+    length = float(np.linalg.norm(l))
+    t = d @ (l / length)
+    radial2 = np.einsum("...k,...k->...", d, d) - t * t
+    return (np.abs(t) <= length) & (radial2 <= q["radius"] ** 2)
+
+
+def level_ellipsoid(q, body):
+    return sum((body[..., k] / q["semi_axes"][k]) ** 2 for k in range(3))
+
+
+def near_surface(q, d, tol=1e-9):
+    """Offsets within a relative 1e-9 of the particle's surface (either label is right)."""
+    if q["type"] == "sphere":
+        return np.abs(np.sqrt(np.einsum("...k,...k->...", d, d)) / q["radius"] - 1) < tol
+    if q["type"] == "ellipsoid":
+        return np.abs(level_ellipsoid(q, d @ rotation(q["orientation"])) - 1) < tol
+    l = np.array(q["half_axis"], dtype=float)
+    length = float(np.linalg.norm(l))
+    t = d @ (l / length)
+    radial = np.sqrt(np.maximum(np.einsum("...k,...k->...", d, d) - t * t, 0))
+    return (np.abs(np.abs(t) / length - 1) < tol) | (np.abs(radial / q["radius"] - 1) < tol)
 
 
 def container_volume(c):
@@ -84,9 +142,10 @@ def quadratic_tet_volumes(pts, t):
 def check_gmsh(packing_path, mesh_path, args):
     import meshio
 
-    p, centres, radii = load_packing(packing_path)
+    p, centres, radii = load_packing(packing_path, spheres_only=False)
     shrink = option(args, "--shrink", 0.0)
     shell = option(args, "--interface", 0.0)
+    assert shell == 0 or len(radii) == len(p["particles"]), "shells are checked for spheres only"
     tol = option(args, "--tolerance", 0.02)
     mesh = meshio.read(mesh_path)
     groups = {name: int(tag) for name, (tag, dim) in
@@ -95,7 +154,7 @@ def check_gmsh(packing_path, mesh_path, args):
     assert set(groups) == expected_names, f"physical volumes {groups}, expected {expected_names}"
     # Exact volumes: periodic images reassemble whole particles; walls keep them inside.
     r = radii * (1.0 - shrink)
-    aggregates = float(np.sum(4.0 / 3.0 * math.pi * r ** 3))
+    aggregates = sum(particle_volume(q, 1.0 - shrink) for q in p["particles"])
     interface = float(np.sum(4.0 / 3.0 * math.pi * ((r + shell) ** 3 - r ** 3))) if shell > 0 else 0.0
     total = container_volume(p["container"])
     expected = {"aggregates": aggregates, "matrix": total - aggregates - interface}
@@ -142,17 +201,48 @@ def check_gmsh(packing_path, mesh_path, args):
 def check_vtk(packing_path, path):
     import meshio
 
-    _, centres, radii = load_packing(packing_path)
+    p, _, _ = load_packing(packing_path, spheres_only=False)
+    particles = p["particles"]
     mesh = meshio.read(path)
-    assert np.array_equal(mesh.points, centres), "points differ from the centres"
     pd = mesh.point_data
-    assert np.array_equal(pd["radius"].ravel(), radii), "radius differs"
-    assert np.array_equal(pd["semi_axes"], np.repeat(radii[:, None], 3, axis=1))
-    assert np.array_equal(pd["orientation"], np.tile([1.0, 0, 0, 0], (len(radii), 1)))
-    tensor = pd["shape_tensor"].reshape(-1, 3, 3)
-    assert np.array_equal(tensor, radii[:, None, None] * np.eye(3)[None])
-    assert sum(len(b.data) for b in mesh.cells if b.type == "vertex") == len(radii)
-    print(f"vtk: ok ({len(radii)} particles)")
+    for name in ("radius", "semi_axes", "orientation", "shape_tensor", "half_axis", "shape"):
+        assert name in pd, f"point array {name} missing: {sorted(pd)}"
+    assert np.array_equal(mesh.points, np.array([q["center"] for q in particles], dtype=float))
+    tensors = pd["shape_tensor"].reshape(-1, 3, 3)
+    shapes = {"sphere": 1, "ellipsoid": 2, "cylinder": 3}
+    for i, q in enumerate(particles):
+        radius, semi, quat, half, shape = (pd[n][i] for n in
+                                           ("radius", "semi_axes", "orientation", "half_axis", "shape"))
+        assert int(np.ravel(shape)[0]) == shapes[q["type"]], (i, shape)
+        if q["type"] == "sphere":
+            r = q["radius"]
+            assert float(np.ravel(radius)[0]) == r and np.array_equal(semi, [r, r, r])
+            assert np.array_equal(quat, [1.0, 0, 0, 0]) and np.array_equal(half, [0.0, 0, 0])
+            assert np.array_equal(tensors[i], r * np.eye(3))
+        elif q["type"] == "ellipsoid":
+            # The JSON values verbatim (full-precision floats survive the ASCII round trip).
+            assert np.array_equal(semi, q["semi_axes"]), (semi, q["semi_axes"])
+            assert np.array_equal(quat, q["orientation"]), (quat, q["orientation"])
+            assert float(np.ravel(radius)[0]) == max(q["semi_axes"])
+            assert np.array_equal(half, [0.0, 0, 0])
+            rot = rotation(q["orientation"])
+            expected = rot @ np.diag(q["semi_axes"]) @ rot.T
+            assert np.allclose(tensors[i], expected, rtol=0, atol=1e-12 * max(q["semi_axes"]))
+        else:
+            l = np.array(q["half_axis"], dtype=float)
+            length = float(np.linalg.norm(l))
+            assert np.array_equal(half, l), (half, l)
+            assert float(np.ravel(radius)[0]) == q["radius"]
+            assert np.allclose(semi, [q["radius"], q["radius"], length], rtol=1e-15, atol=0)
+            # The orientation turns the body z axis onto the half axis.
+            rot = rotation(quat)
+            assert abs(np.linalg.norm(quat) - 1) < 1e-12
+            assert np.allclose(rot @ [0, 0, 1.0], l / length, atol=1e-12), (rot @ [0, 0, 1], l)
+            expected = rot @ np.diag([q["radius"], q["radius"], length]) @ rot.T
+            assert np.allclose(tensors[i], expected, rtol=0, atol=1e-12 * length)
+    assert sum(len(b.data) for b in mesh.cells if b.type == "vertex") == len(particles)
+    kinds = sorted({q["type"] for q in particles})
+    print(f"vtk: ok ({len(particles)} particles: {', '.join(kinds)})")
 
 
 def check_csv(packing_path, path):
@@ -165,22 +255,31 @@ def check_csv(packing_path, path):
     print(f"csv: ok ({len(radii)} rows)")
 
 
-def brute_force_labels(p, centres, radii, shape, spacing, origin, particle_labels):
-    """Voxel-centre labels computed independently with numpy broadcasting."""
+# Phase labels of the shapes (`--labels phase`); partial volumes count every solid voxel.
+PHASES = {"sphere": 1, "ellipsoid": 2, "cylinder": 3}
+
+
+def brute_force_labels(p, shape, spacing, origin, particle_labels, ambiguous=None):
+    """Voxel-centre labels computed independently with numpy broadcasting (minimum image on
+    periodic axes: every particle here is shorter than half the box). Voxels whose centre is
+    within 1e-9 of a non-spherical surface are marked in `ambiguous` (rounding may go either
+    way between this computation and the exporter's)."""
     c = p["container"]
     periodic = c.get("periodic", [False] * 3)
     axes = [origin[k] + (np.arange(shape[k]) + 0.5) * spacing[k] for k in range(3)]
     X, Y, Z = np.meshgrid(*axes, indexing="ij")
     labels = np.zeros(shape, dtype=np.int64)
     length = [shape[k] * spacing[k] for k in range(3)]
-    for i, (ctr, r) in enumerate(zip(centres, radii)):
-        d2 = np.zeros(shape)
+    for i, q in enumerate(p["particles"]):
+        ctr = q["center"]
+        d = np.zeros(shape + (3,))
         for k, grid in enumerate((X, Y, Z)):
-            d = grid - ctr[k]
+            d[..., k] = grid - ctr[k]
             if periodic[k]:
-                d -= length[k] * np.round(d / length[k])
-            d2 += d * d
-        labels[d2 <= r * r] = i + 1 if particle_labels else 1
+                d[..., k] -= length[k] * np.round(d[..., k] / length[k])
+        labels[inside(q, d)] = i + 1 if particle_labels else PHASES[q["type"]]
+        if ambiguous is not None and q["type"] != "sphere":
+            ambiguous |= near_surface(q, d)
     if c["type"] == "cylinder":
         b = c["base_center"]
         out = (X - b[0]) ** 2 + (Y - b[1]) ** 2 > c["radius"] ** 2
@@ -188,21 +287,24 @@ def brute_force_labels(p, centres, radii, shape, spacing, origin, particle_label
     return labels
 
 
-def check_partial_volume(p, centres, radii, image, meta):
+def exact_fraction(p):
+    return sum(particle_volume(q) for q in p["particles"]) / container_volume(p["container"])
+
+
+def check_partial_volume(p, image, meta):
     """Solid fractions from s^3 sample points per voxel, recomputed by brute force: the sample
     grid is a voxel grid s times finer, labelled here and averaged over each s^3 block."""
     s = int(meta["labels"]["samples_per_axis"])
     shape = tuple(meta["shape"])
-    fine = brute_force_labels(p, centres, radii, tuple(n * s for n in shape),
+    fine = brute_force_labels(p, tuple(n * s for n in shape),
                               [h / s for h in meta["spacing"]], meta["origin"], False)
-    solid = (fine == 1).reshape(shape[0], s, shape[1], s, shape[2], s).mean(axis=(1, 3, 5))
+    solid = ((fine > 0) & (fine != 255)).reshape(shape[0], s, shape[1], s, shape[2], s).mean(axis=(1, 3, 5))
     if p["container"]["type"] == "cylinder":
-        centre_labels = brute_force_labels(p, centres, radii, shape, meta["spacing"],
-                                           meta["origin"], False)
+        centre_labels = brute_force_labels(p, shape, meta["spacing"], meta["origin"], False)
         solid[centre_labels == 255] = -1.0
     gap = float(np.max(np.abs(image.astype(np.float64) - solid)))
     assert gap < 1e-6, f"partial volumes differ from the numpy recomputation by {gap}"
-    phi = float(np.sum(4.0 / 3.0 * math.pi * radii ** 3)) / container_volume(p["container"])
+    phi = exact_fraction(p)
     phi_vox = float(image[image > 0].astype(np.float64).sum()) * float(np.prod(meta["spacing"])) \
         / container_volume(p["container"])
     assert abs(phi_vox - meta["packing_fraction_voxels"]) < 1e-9
@@ -211,7 +313,7 @@ def check_partial_volume(p, centres, radii, image, meta):
 
 
 def check_voxels(packing_path, path, raw):
-    p, centres, radii = load_packing(packing_path)
+    p, _, _ = load_packing(packing_path, spheres_only=False)
     with open(path + ".json") as f:
         meta = json.load(f)
     shape = tuple(meta["shape"])
@@ -221,21 +323,27 @@ def check_voxels(packing_path, path, raw):
         image = np.load(path)
         assert image.shape == shape and image.dtype == np.dtype(meta["numpy_descr"])
     if meta["dtype"] == "float32":
-        return check_partial_volume(p, centres, radii, image, meta)
+        return check_partial_volume(p, image, meta)
     particle_labels = meta["dtype"] == "uint32"
-    expected = brute_force_labels(p, centres, radii, shape, meta["spacing"], meta["origin"],
-                                  particle_labels)
-    mismatch = int(np.count_nonzero(image.astype(np.int64) != expected))
+    if not particle_labels:
+        for name, label in PHASES.items():
+            assert meta["labels"][str(label)] == name, meta["labels"]
+    ambiguous = np.zeros(shape, dtype=bool)
+    expected = brute_force_labels(p, shape, meta["spacing"], meta["origin"], particle_labels,
+                                  ambiguous)
+    differ = image.astype(np.int64) != expected
     # Centres exactly on a sphere surface could go either way in floating point; none expected.
+    mismatch = int(np.count_nonzero(differ & ~ambiguous))
     assert mismatch == 0, f"{mismatch} voxels differ from the numpy voxelisation"
     outside = 2 ** 32 - 1 if particle_labels else 255
     solid = np.count_nonzero((image != 0) & (image != outside))
     phi_vox = solid * float(np.prod(meta["spacing"])) / container_volume(p["container"])
-    phi = float(np.sum(4.0 / 3.0 * math.pi * radii ** 3)) / container_volume(p["container"])
+    phi = exact_fraction(p)
     assert abs(phi_vox - meta["packing_fraction_voxels"]) < 1e-12
     assert abs(phi - meta["packing_fraction_exact"]) < 1e-12
     assert abs(phi_vox - phi) <= meta["resolution_bound"], (phi_vox, phi, meta["resolution_bound"])
-    print(f"{'raw' if raw else 'npy'}: ok ({shape}, φ exact {phi:.5f}, voxels {phi_vox:.5f})")
+    print(f"{'raw' if raw else 'npy'}: ok ({shape}, φ exact {phi:.5f}, voxels {phi_vox:.5f}, "
+          f"bound {meta['resolution_bound']:.2e}, {int(np.count_nonzero(differ))} surface voxels either way)")
 
 
 def main():

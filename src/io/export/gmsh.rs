@@ -89,20 +89,29 @@ fn solid_statement(s: &Solid, scale: f64, tag: usize) -> String {
             semi_axes,
             orientation,
         } => {
-            // A unit sphere dilated to the semi-axes (a shell adds `inflate` to each: an
-            // ellipsoid, not the exact offset surface) and rotated about its centre.
+            // A unit sphere at the origin dilated to the semi-axes (a shell adds `inflate` to
+            // each: an ellipsoid, not the exact offset surface), rotated about the origin and
+            // then translated to its centre: every periodic image is then the same solid
+            // moved, so OpenCASCADE cuts matching curves on opposite faces. (Built at its own
+            // centre, an image's spline surface differs in the last bits from the original's
+            // and Gmsh 4.8 failed to pair the cut curves of a periodic box: "Cannot find
+            // periodic counterpart", then a crash.)
             let c: Vec<f64> = (0..3).map(|k| center[k] + s.shift[k]).collect();
             let a: Vec<f64> = semi_axes.iter().map(|x| x * scale + s.inflate).collect();
             let mut text = format!(
-                "Sphere({tag}) = {{{}, {}, {}, 1}};\nDilate {{{{{}, {}, {}}}, {{{}, {}, {}}}}} {{ Volume{{{tag}}}; }}",
-                c[0], c[1], c[2], c[0], c[1], c[2], a[0], a[1], a[2]
+                "Sphere({tag}) = {{0, 0, 0, 1}};\nDilate {{{{0, 0, 0}}, {{{}, {}, {}}}}} {{ Volume{{{tag}}}; }}",
+                a[0], a[1], a[2]
             );
             if let Some((axis, angle)) = super::rotation_of(orientation).axis_angle() {
                 text.push_str(&format!(
-                    "\nRotate {{{{{}, {}, {}}}, {{{}, {}, {}}}, {}}} {{ Volume{{{tag}}}; }}",
-                    axis[0], axis[1], axis[2], c[0], c[1], c[2], angle
+                    "\nRotate {{{{{}, {}, {}}}, {{0, 0, 0}}, {}}} {{ Volume{{{tag}}}; }}",
+                    axis[0], axis[1], axis[2], angle
                 ));
             }
+            text.push_str(&format!(
+                "\nTranslate {{{}, {}, {}}} {{ Volume{{{tag}}}; }}",
+                c[0], c[1], c[2]
+            ));
             text
         }
     }

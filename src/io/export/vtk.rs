@@ -7,7 +7,8 @@
 //! | `semi_axes` | 3 | semi-axes in the body frame (`r, r, r` for a sphere) |
 //! | `orientation` | 4 | unit quaternion `w, x, y, z` body → world (`1, 0, 0, 0` for a sphere) |
 //! | `shape_tensor` | 9 | `R diag(semi_axes) Rᵀ`, row-major: scale and orient a sphere glyph with ParaView's *Tensor Glyph* |
-//! | `shape` | 1 | shape id: 1 sphere |
+//! | `half_axis` | 3 | a cylinder's half-axis vector (centre → end-disk centre), as in the packing; `0, 0, 0` for other shapes |
+//! | `shape` | 1 | shape id: 1 sphere, 2 ellipsoid, 3 cylinder (body z axis along the half axis) |
 //!
 //! For spheres, ParaView's *Glyph* filter with a sphere source, *Scale Array* `radius` and
 //! scale factor 2 (the source has radius 0.5) draws the packing. The provenance line is an
@@ -24,6 +25,7 @@ struct Attributes {
     semi_axes: [f64; 3],
     orientation: [f64; 4],
     shape_tensor: [f64; 9],
+    half_axis: [f64; 3],
     shape: u8,
 }
 
@@ -35,6 +37,7 @@ fn attributes(p: &ParticleRecord) -> Attributes {
             semi_axes: [*radius; 3],
             orientation: [1.0, 0.0, 0.0, 0.0],
             shape_tensor: [*radius, 0.0, 0.0, 0.0, *radius, 0.0, 0.0, 0.0, *radius],
+            half_axis: [0.0; 3],
             shape: 1,
         },
         ParticleRecord::Cylinder {
@@ -66,6 +69,7 @@ fn attributes(p: &ParticleRecord) -> Attributes {
                 semi_axes: [*radius, *radius, length],
                 orientation: [q.w, q.i, q.j, q.k],
                 shape_tensor: std::array::from_fn(|k| tensor[(k / 3, k % 3)]),
+                half_axis: *half_axis,
                 shape: 3,
             }
         }
@@ -84,6 +88,7 @@ fn attributes(p: &ParticleRecord) -> Attributes {
                 semi_axes: *a,
                 orientation: *orientation,
                 shape_tensor: std::array::from_fn(|k| tensor[(k / 3, k % 3)]),
+                half_axis: [0.0; 3],
                 shape: 2,
             }
         }
@@ -147,6 +152,13 @@ pub fn write_vtu_to(packing: &Packing, w: &mut impl Write) -> std::io::Result<()
         "shape_tensor",
         9,
         a.iter().flat_map(|x| x.shape_tensor),
+    )?;
+    data_array(
+        w,
+        "Float64",
+        "half_axis",
+        3,
+        a.iter().flat_map(|x| x.half_axis),
     )?;
     data_array(w, "UInt8", "shape", 1, a.iter().map(|x| x.shape))?;
     writeln!(w, "      </PointData>")?;
