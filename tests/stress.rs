@@ -498,6 +498,14 @@ fn scaled_run(s: f64, n: usize) -> (Row, Kernel<Sphere, PeriodicBox>) {
 /// reference. With s = 10^±3 the inputs round differently at the last bit, and hard-sphere
 /// dynamics amplifies such differences (positive Lyapunov exponent): the trajectories agree
 /// to 1e-9 only until the event sequences part; after that only the statistics agree.
+///
+/// Reduced units in the run layer (every length divided by a reference length such as the
+/// largest diameter before the kernel runs) would not make them agree: the quotients of the
+/// scaled inputs are not those of the unscaled ones — for this test's box and diameter,
+/// fl(9e-3 / fl(d·1e-3)) = 9.556138980221725 but fl(9 / d) = 9.556138980221723 — and one unit
+/// in the last place parts the trajectories as surely as any other. (And a scene scaled in
+/// length alone, with the same `temperature`, is another protocol: its time unit is fixed by
+/// kT and the mass, so collisions come 10³ times as often per unit of the growth rate.)
 #[test]
 fn scale_covariance() {
     header();
