@@ -51,8 +51,8 @@ enum Command {
         #[arg(long, value_name = "FILE")]
         run_log: Option<PathBuf>,
         /// Write a checkpoint to FILE during the run (atomically, at a time barrier, every
-        /// --checkpoint-every seconds); continue a killed run with --resume FILE. Sphere
-        /// scenes only.
+        /// --checkpoint-every seconds); continue a killed run with --resume FILE. EDMD
+        /// scenes (spheres and ellipsoids); not mixtures.
         #[arg(long, value_name = "FILE")]
         checkpoint: Option<PathBuf>,
         /// Wall-clock seconds between checkpoints.

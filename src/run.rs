@@ -5,8 +5,8 @@
 //! Ellipsoid scenes go through [`ellipsoid`] with the same stage loop.
 //!
 //! The kernel runs relative to the container's origin ([`container_origin`]) and the packing
-//! is translated back when it is written. Sphere runs can write checkpoints at time barriers
-//! and be resumed from them ([`run_scene_checkpointed`], [`resume_run`]).
+//! is translated back when it is written. Sphere and ellipsoid runs can write checkpoints at
+//! time barriers and be resumed from them ([`run_scene_checkpointed`], [`resume_run`]).
 
 pub mod ellipsoid;
 
@@ -92,7 +92,7 @@ struct Job<'a> {
 
 /// Runs the scene given as TOML text (parsed and validated by the caller into `scene`)
 /// and writes checkpoints as `plan` says. The packing is the one [`run_scene_observed`]
-/// gives. Sphere scenes only: ellipsoid scenes are refused ([`RunError::Unsupported`]).
+/// gives. Sphere and ellipsoid scenes (EDMD); RSA scenes never reach a time barrier.
 pub fn run_scene_checkpointed(
     scene_toml: &str,
     scene: &Scene,
@@ -144,14 +144,26 @@ struct Checkpointer<'a> {
     last: std::time::Instant,
 }
 
-impl Checkpointer<'_> {
-    fn at_barrier<B: Boundary, Q: EventQueue>(
+impl<'a> Checkpointer<'a> {
+    /// The checkpointer of a job that writes checkpoints.
+    fn of(job: &Job<'a>) -> Option<Self> {
+        job.checkpoints.map(|plan| Checkpointer {
+            plan,
+            scene_toml: job.scene_toml,
+            last: std::time::Instant::now(),
+        })
+    }
+
+    fn at_barrier<S, B: Boundary, Q: EventQueue>(
         &mut self,
         stage: usize,
         progress: &StageProgress,
         reports: &[StageReport],
-        kernel: &Edmd<Sphere, B, Q>,
-    ) {
+        kernel: &Edmd<S, B, Q>,
+    ) where
+        S: Collidable + serde::Serialize,
+        S::Spin: serde::Serialize,
+    {
         if self.last.elapsed() < self.plan.every {
             return;
         }
@@ -210,14 +222,7 @@ fn run_job(
     on_progress: &mut dyn FnMut(usize, &Progress),
 ) -> Result<RunOutcome, RunError> {
     if scene.particles.ellipsoid.is_some() {
-        if job.resume.is_some() || job.checkpoints.is_some() {
-            return Err(RunError::Unsupported(
-                "checkpoint and resume are implemented for sphere scenes only; run this \
-                 ellipsoid scene without --checkpoint"
-                    .into(),
-            ));
-        }
-        return ellipsoid::run_ellipsoid_scene(scene, on_stage, on_progress);
+        return ellipsoid::run_ellipsoid_scene(scene, job, on_stage, on_progress);
     }
     // The kernel works relative to the container's origin (see `container_origin`).
     match &scene.container {
@@ -385,29 +390,11 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
             (kernel, StagesFrom::start(), seeding_seconds)
         }
         Some(file) => {
-            let stage = file.header.stage;
-            // A gap stage in progress runs in its own container (walls moved out).
-            let walls_moved = walls_moved_by(&scene.stages[stage]);
-            let boundary = if walls_moved > 0.0 {
-                original.expanded(walls_moved)
-            } else {
-                boundary
-            };
-            let kernel = Edmd::from_snapshot(file.kernel()?, boundary, kernel_config(scene))
-                .map_err(|e| file.error(e.to_string()))?;
-            let from = StagesFrom {
-                stage,
-                progress: Some(file.header.progress.clone().into_owned()),
-                reports: file.header.reports.to_vec(),
-            };
+            let (kernel, from) = resumed_kernel(scene, file, boundary)?;
             (kernel, from, 0.0)
         }
     };
-    let mut checkpointer = job.checkpoints.map(|plan| Checkpointer {
-        plan,
-        scene_toml: job.scene_toml,
-        last: std::time::Instant::now(),
-    });
+    let mut checkpointer = Checkpointer::of(job);
     let done = run_stages(
         scene,
         &mut kernel,
@@ -464,6 +451,37 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
         done.reports,
         seeding_seconds,
     )
+}
+
+/// The kernel `file` stores, rebuilt in the scene's container `boundary` (relative to its
+/// origin; a gap stage in progress runs in its own container, walls moved out), and where
+/// its stages resume.
+fn resumed_kernel<S, B, Q>(
+    scene: &Scene,
+    file: &CheckpointFile,
+    boundary: B,
+) -> Result<(Edmd<S, B, Q>, StagesFrom), RunError>
+where
+    S: Collidable + serde::de::DeserializeOwned,
+    S::Spin: serde::de::DeserializeOwned,
+    B: Boundary + SceneContainer,
+    Q: EventQueue,
+{
+    let stage = file.header.stage;
+    let walls_moved = walls_moved_by(&scene.stages[stage]);
+    let boundary = if walls_moved > 0.0 {
+        boundary.expanded(walls_moved)
+    } else {
+        boundary
+    };
+    let kernel = Edmd::from_snapshot(file.kernel()?, boundary, kernel_config(scene))
+        .map_err(|e| file.error(e.to_string()))?;
+    let from = StagesFrom {
+        stage,
+        progress: Some(file.header.progress.clone().into_owned()),
+        reports: file.header.reports.to_vec(),
+    };
+    Ok((kernel, from))
 }
 
 /// The kernel settings of a scene.

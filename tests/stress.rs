@@ -1,35 +1,81 @@
-//! Numerical stress of the sphere EDMD kernel: runs to jamming and long runs near it, wide
-//! size ratios, degenerate starts, scale covariance and far-off coordinates.
+//! Numerical stress of the EDMD kernel — spheres: runs to jamming and long runs near it, wide
+//! size ratios, degenerate starts, scale covariance and far-off coordinates; ellipsoids of
+//! aspect ratio 50 (prolate and oblate, periodic and walled) grown towards jamming — and of
+//! the sphere + cylinder relaxer on starts with parallel, crossing and coincident axes.
 //!
 //! Every case is watched at every time barrier: the kernel is synchronised there, and its
 //! particles are handed to the independent check (`densepack::verify`, which shares no code
 //! with the kernel) — so "no overlap" holds for the whole run, not only for the final
 //! packing. Each case prints a row: stop reason, packing fraction, the smallest pair gap
-//! and wall gap ever seen (relative; negative = overlap within the check's 1e-9 tolerance),
-//! and the kernel's counters, among them `late` (events whose predicted time had already
-//! passed: rounding in a prediction) and `repred` (local lists predicted afresh).
+//! and wall gap ever seen (relative; negative = overlap within the check's 1e-9 tolerance;
+//! for ellipsoids the Perram–Wertheim contact scale less one), and the kernel's counters,
+//! among them `late` (events whose predicted time had already passed: rounding in a
+//! prediction), `repred` (local lists predicted afresh) and `pfail` (ellipsoid predictions
+//! that gave up and answered conservatively: the numerical-failure counter).
 //!
 //! Sizes: reduced by default (the whole target takes about a minute in release mode, run by
 //! CI); `DENSEPACK_STRESS=full cargo test --release --test stress -- --nocapture` runs the
 //! full sizes (10⁴ spheres, 10⁷ events near jamming, size ratio 100; tens of minutes).
 //!
-//! Ellipsoids and cylinders plug in here as further `Edmd<S, …>` kernels driven by
-//! [`watch_stage`], once their `Collidable` implementations land.
+//! Ellipsoids run as `Edmd<Ellipsoid, …>` kernels through the same [`watch_stage`]; the
+//! mixture relaxer (time-driven, no barriers) is checked on its result, by the exact typed
+//! tests and by the independent GJK certificates.
 
 mod common;
 
 use densepack::boundary::{Boundary, PeriodicBox, WalledBox};
 use densepack::io::packing::{Packing, ParticleRecord};
-use densepack::kernel::{Edmd, EventCounts, KernelConfig, Limits, Stage, StopReason, Until};
+use densepack::kernel::{
+    Edmd, EventCounts, KernelConfig, Limits, Particle, Stage, StopReason, Until,
+};
+use densepack::protocol::mixture::relax::{relax, RelaxSettings};
+use densepack::protocol::mixture::{
+    first_intersection, BodySize, GenerationOrder, MixtureSpec, Rve,
+};
 use densepack::protocol::rsa::rsa_spheres;
 use densepack::queue::CalendarQueue;
+use densepack::run::mixture_packing;
 use densepack::run::SceneContainer;
-use densepack::shape::{Growth, Sphere, Vec3};
+use densepack::shape::{Collidable, Ellipsoid, Growth, Sphere, Spin, Vec3};
 use densepack::verify::verify;
-use rand::SeedableRng;
+use nalgebra::{Quaternion, UnitQuaternion};
+use rand::{Rng, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
-type Kernel<B> = Edmd<Sphere, B, CalendarQueue>;
+type Kernel<S, B> = Edmd<S, B, CalendarQueue>;
+
+/// What the watch needs of a particle shape: its packing record and its smallest size.
+trait Recorded: Collidable {
+    fn record(p: &Particle<Self>) -> ParticleRecord;
+    /// Smallest half-width: a sphere's radius, an ellipsoid's smallest semi-axis.
+    fn min_half_width(&self) -> f64;
+}
+
+impl Recorded for Sphere {
+    fn record(p: &Particle<Self>) -> ParticleRecord {
+        ParticleRecord::Sphere {
+            center: p.pos.into(),
+            radius: p.shape.radius(0.0),
+        }
+    }
+    fn min_half_width(&self) -> f64 {
+        self.radius(0.0)
+    }
+}
+
+impl Recorded for Ellipsoid {
+    fn record(p: &Particle<Self>) -> ParticleRecord {
+        let q = p.spin.orientation;
+        ParticleRecord::Ellipsoid {
+            center: p.pos.into(),
+            semi_axes: p.shape.semi_axes(0.0).into(),
+            orientation: [q.w, q.i, q.j, q.k],
+        }
+    }
+    fn min_half_width(&self) -> f64 {
+        self.min_semi_axis(0.0)
+    }
+}
 
 fn full() -> bool {
     std::env::var("DENSEPACK_STRESS").is_ok_and(|v| v == "full")
@@ -49,9 +95,10 @@ fn size(reduced: usize, full_size: usize) -> usize {
 struct Watch {
     /// Barriers checked.
     checks: usize,
-    /// Smallest `|c_i − c_j| / (r_i + r_j) − 1` ever seen.
+    /// Smallest `|c_i − c_j| / (r_i + r_j) − 1` ever seen (ellipsoids: the Perram–Wertheim
+    /// contact scale less one).
     min_pair_gap: f64,
-    /// Smallest particle–wall gap ever seen, divided by the smallest radius.
+    /// Smallest particle–wall gap ever seen, divided by the smallest half-width.
     min_wall_gap: f64,
     /// Violations the independent check reported, over all barriers.
     violations: usize,
@@ -71,7 +118,7 @@ impl Watch {
     }
 
     /// Checks the synchronised kernel with the independent verification.
-    fn check<B: Boundary + SceneContainer>(&mut self, kernel: &Kernel<B>) {
+    fn check<S: Recorded, B: Boundary + SceneContainer>(&mut self, kernel: &Kernel<S, B>) {
         let packing = packing_of(kernel);
         let report = verify(&packing);
         self.checks += 1;
@@ -82,7 +129,7 @@ impl Watch {
             let r_min = kernel
                 .particles()
                 .iter()
-                .map(|p| p.shape.radius(0.0))
+                .map(|p| p.shape.min_half_width())
                 .fold(f64::INFINITY, f64::min);
             self.min_wall_gap = self.min_wall_gap.min(g / r_min);
         }
@@ -94,21 +141,14 @@ impl Watch {
     }
 }
 
-fn packing_of<B: Boundary + SceneContainer>(kernel: &Kernel<B>) -> Packing {
-    let particles = kernel
-        .particles()
-        .iter()
-        .map(|p| ParticleRecord::Sphere {
-            center: p.pos.into(),
-            radius: p.shape.radius(0.0),
-        })
-        .collect();
+fn packing_of<S: Recorded, B: Boundary + SceneContainer>(kernel: &Kernel<S, B>) -> Packing {
+    let particles = kernel.particles().iter().map(S::record).collect();
     Packing::new(kernel.boundary().record(), particles)
 }
 
 /// Runs a stage, checking the kernel at every barrier and at the end.
-fn watch_stage<B: Boundary + SceneContainer>(
-    kernel: &mut Kernel<B>,
+fn watch_stage<S: Recorded, B: Boundary + SceneContainer>(
+    kernel: &mut Kernel<S, B>,
     stage: &Stage,
     watch: &mut Watch,
 ) -> StopReason {
@@ -131,9 +171,9 @@ struct Row {
 
 fn header() {
     eprintln!(
-        "{:<34} {:>6} {:>9} {:>10} {:>10} {:>6} {:>11} {:>11} {:>9} {:>7} {:>7} {:>6} {:>6} {:>7} {:>6}  stops",
+        "{:<34} {:>6} {:>9} {:>10} {:>10} {:>6} {:>11} {:>11} {:>9} {:>7} {:>7} {:>6} {:>6} {:>5} {:>7} {:>6}  stops",
         "case", "N", "phi", "min gap", "min wall", "checks", "events", "collisions", "walls",
-        "nl upd", "stale", "repred", "late", "barrier", "s"
+        "nl upd", "stale", "repred", "late", "pfail", "barrier", "s"
     );
 }
 
@@ -142,7 +182,7 @@ impl Row {
         let c = &self.counts;
         let stops: Vec<&str> = self.stops.iter().map(|s| s.as_str()).collect();
         eprintln!(
-            "{:<34} {:>6} {:>9.6} {:>10.2e} {:>10.2e} {:>6} {:>11} {:>11} {:>9} {:>7} {:>7} {:>6} {:>6} {:>7} {:>6.1}  {}",
+            "{:<34} {:>6} {:>9.6} {:>10.2e} {:>10.2e} {:>6} {:>11} {:>11} {:>9} {:>7} {:>7} {:>6} {:>6} {:>5} {:>7} {:>6.1}  {}",
             self.name,
             self.n,
             self.phi,
@@ -156,6 +196,7 @@ impl Row {
             c.stale,
             c.repredictions,
             c.late_events,
+            c.prediction_failures,
             c.barriers,
             self.seconds,
             stops.join(",")
@@ -174,11 +215,11 @@ impl Row {
 }
 
 /// Runs `stages` on a kernel and returns the row.
-fn run_case<B: Boundary + SceneContainer>(
+fn run_case<S: Recorded, B: Boundary + SceneContainer>(
     name: &str,
-    mut kernel: Kernel<B>,
+    mut kernel: Kernel<S, B>,
     stages: &[Stage],
-) -> (Row, Kernel<B>) {
+) -> (Row, Kernel<S, B>) {
     let started = std::time::Instant::now();
     let mut watch = Watch::new();
     watch.check(&kernel);
@@ -201,7 +242,7 @@ fn run_case<B: Boundary + SceneContainer>(
 }
 
 /// Spheres of the given diameters seeded by RSA, Maxwell–Boltzmann velocities at `kT`.
-fn seeded<B: Boundary>(boundary: B, diameters: &[f64], seed: u64, kt: f64) -> Kernel<B> {
+fn seeded<B: Boundary>(boundary: B, diameters: &[f64], seed: u64, kt: f64) -> Kernel<Sphere, B> {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
     let radii: Vec<f64> = diameters.iter().map(|d| 0.5 * d).collect();
     let centres = rsa_spheres(&boundary, &radii, 0.0, 0.0, 1_000_000, &mut rng).expect("RSA seeds");
@@ -214,7 +255,12 @@ fn seeded<B: Boundary>(boundary: B, diameters: &[f64], seed: u64, kt: f64) -> Ke
 }
 
 /// Placed spheres (no RSA), Maxwell–Boltzmann velocities at kT = 1.
-fn placed<B: Boundary>(boundary: B, centres: Vec<Vec3>, diameter: f64, seed: u64) -> Kernel<B> {
+fn placed<B: Boundary>(
+    boundary: B,
+    centres: Vec<Vec3>,
+    diameter: f64,
+    seed: u64,
+) -> Kernel<Sphere, B> {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
     let shapes = vec![Sphere::new(0.5 * diameter); centres.len()];
     Edmd::new(centres, shapes, boundary, KernelConfig::default(), &mut rng)
@@ -269,7 +315,7 @@ fn equilibrate(collisions_per_particle: f64) -> Stage {
 
 fn jam_row<B: Boundary + SceneContainer>(
     name: &str,
-    kernel: Kernel<B>,
+    kernel: Kernel<Sphere, B>,
     rattle: f64,
     jam_from: f64,
 ) -> Row {
@@ -437,7 +483,7 @@ fn degenerate_starts() {
 /// A jamming run with every length scaled by `s` (and kT by s², so that velocities scale by
 /// s and times do not change): the packing fraction at every barrier, the final packing
 /// fraction, the counters and the kernel.
-fn scaled_run(s: f64, n: usize) -> (Row, Kernel<PeriodicBox>) {
+fn scaled_run(s: f64, n: usize) -> (Row, Kernel<Sphere, PeriodicBox>) {
     let edge = 9.0 * s;
     let d = diameter_for(n, 0.3, 9.0f64.powi(3)) * s;
     let kernel = seeded(cube(edge), &vec![d; n], 10, s * s);
@@ -452,6 +498,14 @@ fn scaled_run(s: f64, n: usize) -> (Row, Kernel<PeriodicBox>) {
 /// reference. With s = 10^±3 the inputs round differently at the last bit, and hard-sphere
 /// dynamics amplifies such differences (positive Lyapunov exponent): the trajectories agree
 /// to 1e-9 only until the event sequences part; after that only the statistics agree.
+///
+/// Reduced units in the run layer (every length divided by a reference length such as the
+/// largest diameter before the kernel runs) would not make them agree: the quotients of the
+/// scaled inputs are not those of the unscaled ones — for this test's box and diameter,
+/// fl(9e-3 / fl(d·1e-3)) = 9.556138980221725 but fl(9 / d) = 9.556138980221723 — and one unit
+/// in the last place parts the trajectories as surely as any other. (And a scene scaled in
+/// length alone, with the same `temperature`, is another protocol: its time unit is fixed by
+/// kT and the mass, so collisions come 10³ times as often per unit of the growth rate.)
 #[test]
 fn scale_covariance() {
     header();
@@ -595,4 +649,247 @@ fn coordinates_offset_by_a_million() {
             assert_eq!(a[k], b[k] + offset);
         }
     }
+}
+
+// ------------------------------------------------------------------------ ellipsoids
+
+/// A uniformly random rotation: a uniform point of the unit 4-ball, normalised.
+fn random_rotation<R: Rng>(rng: &mut R) -> UnitQuaternion<f64> {
+    loop {
+        let mut c = || rng.gen_range(-1.0..1.0);
+        let q = Quaternion::new(c(), c(), c(), c());
+        if (1e-3..=1.0).contains(&q.norm()) {
+            return UnitQuaternion::from_quaternion(q);
+        }
+    }
+}
+
+/// `n` equal ellipsoids of relative semi-axes `shape` (largest 1), seeded by RSA of their
+/// bounding spheres filling 15 % of the container, with random orientations, kT = 1.
+fn seeded_ellipsoids<B: Boundary>(
+    boundary: B,
+    shape: Vec3,
+    n: usize,
+    seed: u64,
+) -> Kernel<Ellipsoid, B> {
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+    let bounding =
+        (0.15 * boundary.volume() / (n as f64 * 4.0 / 3.0 * std::f64::consts::PI)).cbrt();
+    let centres = rsa_spheres(&boundary, &vec![bounding; n], 0.0, 0.0, 1_000_000, &mut rng)
+        .expect("RSA seeds");
+    let spins = (0..n)
+        .map(|_| Spin {
+            orientation: random_rotation(&mut rng),
+            omega: Vec3::zeros(),
+        })
+        .collect();
+    let shapes = vec![Ellipsoid::new(shape * bounding); n];
+    Edmd::with_spins(
+        centres,
+        shapes,
+        spins,
+        boundary,
+        KernelConfig::default(),
+        &mut rng,
+    )
+}
+
+/// Growth at relative rate 0.05 until the reduced pressure `z` (or the packing fraction
+/// `cap`, where the minimum image of a periodic box ends), at most `events` events.
+fn grow_towards_jamming(z: f64, cap: Option<f64>, events: u64) -> Stage {
+    Stage {
+        growth: Growth::Relative(0.05),
+        until: Until {
+            reduced_pressure: Some(z),
+            packing_fraction: cap,
+            ..Until::default()
+        },
+        limits: Limits {
+            events,
+            ..Limits::default()
+        },
+        thermostat: true,
+    }
+}
+
+/// Ellipsoids of aspect ratio 50 — needles (prolate, semi-axes 1 : 1/50 : 1/50) and platelets
+/// (oblate, 1 : 1 : 1/50) — grown from a dilute random start towards jamming, in walled and
+/// in periodic cubes, checked by the independent Perram–Wertheim test at every barrier.
+/// Walled boxes have no minimum-image limit: the needles grow longer than half the box and
+/// jam against each other and the walls. In a periodic box the bounding sphere must stay
+/// shorter than a quarter of the edge (two particles must not meet twice), which caps the
+/// packing fraction at `n·V(a = L/4)/L³`: for needles that cap is far below their jamming
+/// density (φ_J ≈ 5.4/α ≈ 0.1 for rods, Philipse 1996; it would take ~5000 needles), so
+/// periodic needles test dilute, fast-rotating collisions only; for platelets the cap is
+/// 0.07 (reduced) to 0.46 (full).
+///
+/// Needles are slow: about half their predictions give up after `MAX_STEPS` certified steps
+/// (the curvature bound grows like the aspect ratio), which the `pfail` column shows; those
+/// are answered conservatively (an early event with zero impulse), never with an overlap.
+#[test]
+fn ellipsoids_of_aspect_ratio_50() {
+    header();
+    let prolate = Vec3::new(1.0, 0.02, 0.02);
+    let oblate = Vec3::new(1.0, 1.0, 0.02);
+    // Reduced: a reduced pressure of 100 (the needles are then jammed at φ ≈ 0.014 in their
+    // box); full: 10⁹.
+    let z = if full() { 1e9 } else { 1e2 };
+    let events = if full() { 200_000_000 } else { 400_000 };
+    let walled = |shape: Vec3, edge: f64, n: usize, seed: u64, name: &str| {
+        let kernel = seeded_ellipsoids(walled_cube(0.0, edge), shape, n, seed);
+        run_case(name, kernel, &[grow_towards_jamming(z, None, events)]).0
+    };
+    let periodic = |shape: Vec3, n: usize, seed: u64, name: &str| {
+        let edge: f64 = 10.0;
+        let a_max = 0.24 * edge;
+        let cap = n as f64 * 4.0 / 3.0 * std::f64::consts::PI * a_max.powi(3) * shape.product()
+            / edge.powi(3);
+        let kernel = seeded_ellipsoids(cube(edge), shape, n, seed);
+        let stage = grow_towards_jamming(z, Some(cap), events);
+        (run_case(name, kernel, &[stage]).0, cap)
+    };
+    let rows = [
+        walled(prolate, 10.0, size(10, 800), 21, "needles α 50, walled"),
+        walled(oblate, 10.0, size(30, 400), 22, "platelets α 50, walled"),
+    ];
+    for row in &rows {
+        assert!(row.stops[0].is_success(), "{}: {:?}", row.name, row.stops);
+    }
+    for (shape, n, seed, name) in [
+        (prolate, size(40, 1000), 23, "needles α 50, periodic"),
+        (oblate, size(60, 400), 24, "platelets α 50, periodic"),
+    ] {
+        let (row, cap) = periodic(shape, n, seed, name);
+        assert!(row.stops[0].is_success(), "{name}: {:?}", row.stops);
+        eprintln!("  {name}: minimum-image cap φ = {cap:.4}");
+    }
+}
+
+// ------------------------------------------------------------------------ mixtures
+
+/// Relaxes a start with the time-driven relaxer and checks the result: no intersection by
+/// the exact typed tests, and a separating-plane certificate for every pair from the
+/// independent check. Prints what the relaxer did and the smallest gap left.
+fn relax_case(name: &str, mut rve: Rve) {
+    let started = std::time::Instant::now();
+    assert!(
+        first_intersection(&rve).is_some(),
+        "{name}: the start must intersect"
+    );
+    let report = relax(&mut rve, &RelaxSettings::default())
+        .unwrap_or_else(|e| panic!("{name}: the relaxer failed: {e}"));
+    assert!(
+        first_intersection(&rve).is_none(),
+        "{name}: the exact tests find an intersection"
+    );
+    let packing = mixture_packing(&rve, 0, 0.0, "stress", serde_json::Map::new());
+    let v = verify(&packing);
+    let (fs, fc) = rve.fractions();
+    eprintln!(
+        "{name:<34} {:>5} bodies, f_s {fs:.3} f_c {fc:.3}: {} contacts at the start (Σ depth² {:.3e} ℓ²), \
+         {} steps, prefactor {:.3e}, {} Nosé–Hoover activations; smallest gap {:.3e}, {} violations, {:.1} s",
+        rve.bodies.len(),
+        report.initial_contacts,
+        report.initial_energy,
+        report.steps,
+        report.final_prefactor,
+        report.nose_hoover_activations,
+        v.min_pair_gap.unwrap_or(f64::INFINITY),
+        v.violation_count,
+        started.elapsed().as_secs_f64(),
+    );
+    assert!(v.ok(), "{name}: independent check: {:?}", v.violations);
+}
+
+/// Sphere and cylinder sizes of a mixture (fractions `fs`, `fc`, cylinders of aspect ratio
+/// 5) in the unit box.
+fn mixture_sizes(n: usize, fs: f64, fc: f64) -> (PeriodicBox, BodySize, BodySize) {
+    let spec = MixtureSpec {
+        sphere_fraction: fs,
+        cylinder_fraction: fc,
+        spheres: n,
+        cylinders: n,
+        aspect_ratio: 5.0,
+        box_size: 1.0,
+    };
+    spec.validate().expect("a valid mixture");
+    let sizes = spec.sizes(GenerationOrder::CylindersFirst);
+    (spec.boundary(), sizes[0], sizes[n])
+}
+
+/// Starts the relaxer must separate: every cylinder axis parallel (side by side, sliding
+/// along each other); pairs of cylinders whose axes cross at their midpoints with a sphere
+/// at the crossing; and coincident bodies — cylinder pairs on the same axis (identical, and
+/// shifted along it by half their length) and sphere pairs at the same centre — where the
+/// contact direction is degenerate.
+#[test]
+fn mixture_relaxer_separates_parallel_crossing_and_coincident_axes() {
+    let n = size(24, 120);
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(31);
+    let random_centre = |boundary: &PeriodicBox, rng: &mut Xoshiro256PlusPlus| {
+        boundary.min + boundary.len.map(|l| l * rng.gen::<f64>())
+    };
+    let wrapped = |boundary: &PeriodicBox, mut c: Vec3| {
+        boundary.wrap(&mut c);
+        c
+    };
+
+    // Parallel axes, at 40 % (15 % spheres, 25 % cylinders).
+    let (boundary, cylinder, sphere) = mixture_sizes(n, 0.15, 0.25);
+    let mut bodies = Vec::new();
+    for _ in 0..n {
+        bodies.push(cylinder.at(random_centre(&boundary, &mut rng), Vec3::z()));
+    }
+    for _ in 0..n {
+        bodies.push(sphere.at(random_centre(&boundary, &mut rng), Vec3::z()));
+    }
+    relax_case("relax: parallel axes", Rve { boundary, bodies });
+
+    // Crossing axes: each pair crosses at its midpoints (one along x, one along y, in a
+    // random frame), with a sphere at the crossing.
+    let (boundary, cylinder, sphere) = mixture_sizes(n, 0.10, 0.25);
+    let mut bodies = Vec::new();
+    for _ in 0..n / 2 {
+        let c = random_centre(&boundary, &mut rng);
+        let frame = random_rotation(&mut rng);
+        bodies.push(cylinder.at(c, frame * Vec3::x()));
+        bodies.push(cylinder.at(c, frame * Vec3::y()));
+        bodies.push(sphere.at(c, Vec3::z()));
+    }
+    for _ in n / 2..n {
+        bodies.push(sphere.at(random_centre(&boundary, &mut rng), Vec3::z()));
+    }
+    relax_case("relax: crossing axes", Rve { boundary, bodies });
+
+    // Coincident axes and centres.
+    let (boundary, cylinder, sphere) = mixture_sizes(n, 0.10, 0.20);
+    let BodySize::Cylinder { half_length, .. } = cylinder else {
+        unreachable!("sizes[0] is a cylinder")
+    };
+    let mut bodies = Vec::new();
+    for k in 0..n / 2 {
+        let c = random_centre(&boundary, &mut rng);
+        let axis = frame_axis(&mut rng);
+        bodies.push(cylinder.at(c, axis));
+        let twin = if k % 2 == 0 {
+            c
+        } else {
+            wrapped(&boundary, c + axis * half_length)
+        };
+        bodies.push(cylinder.at(twin, axis));
+    }
+    for _ in 0..n / 2 {
+        let c = random_centre(&boundary, &mut rng);
+        bodies.push(sphere.at(c, Vec3::z()));
+        bodies.push(sphere.at(c, Vec3::z()));
+    }
+    relax_case(
+        "relax: coincident axes and centres",
+        Rve { boundary, bodies },
+    );
+}
+
+/// A uniformly random unit vector.
+fn frame_axis<R: Rng>(rng: &mut R) -> Vec3 {
+    random_rotation(rng) * Vec3::z()
 }

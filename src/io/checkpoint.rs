@@ -24,7 +24,8 @@ use std::path::Path;
 pub const MAGIC: &[u8] = b"densepack-checkpoint\n";
 
 /// Version of the checkpoint layout.
-pub const CHECKPOINT_VERSION: u32 = 1;
+/// 2: event counters gained `prediction_failures`; ellipsoid kernels (with their spins).
+pub const CHECKPOINT_VERSION: u32 = 2;
 
 /// Everything of a checkpoint but the kernel.
 #[derive(Clone, Debug, Serialize, Deserialize)]

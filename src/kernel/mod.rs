@@ -150,6 +150,9 @@ pub struct EventCounts {
     /// Events whose predicted time was already past when they were processed (rounding in a
     /// prediction; the event is processed at the current time). A numerical-health counter.
     pub late_events: u64,
+    /// Predictions that gave up and answered conservatively
+    /// ([`Collidable::numerical_failures`]; always 0 for spheres). A numerical-health counter.
+    pub prediction_failures: u64,
 }
 
 impl EventCounts {
@@ -165,6 +168,7 @@ impl EventCounts {
             barriers: self.barriers - before.barriers,
             grid_rebuilds: self.grid_rebuilds - before.grid_rebuilds,
             late_events: self.late_events - before.late_events,
+            prediction_failures: self.prediction_failures - before.prediction_failures,
         }
     }
 }

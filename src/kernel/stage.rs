@@ -318,6 +318,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 self.counters.collisions,
                 self.counters.neighbour_list_updates,
             );
+            let failures_before = S::numerical_failures();
             self.begin_interval(this);
             // An interval that takes far more events than planned ends early: the approach
             // to jamming inside one interval (the collision rate diverges there) would
@@ -346,6 +347,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 });
             }
             self.synchronise_and_rebase(t_end);
+            self.counters.prediction_failures += S::numerical_failures() - failures_before;
             self.counters.barriers += 1;
             progress.stage_time += t_end;
             if stage.thermostat && growing {

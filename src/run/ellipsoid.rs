@@ -1,10 +1,11 @@
 //! Running an ellipsoid scene (paper 004): seeding by random sequential addition of the
-//! bounding spheres with uniformly random orientations, the scene's stages, the orientation
-//! tensor, and the independent verification.
+//! bounding spheres with uniformly random orientations, the scene's stages (with checkpoints
+//! and resume as for spheres: the snapshot holds every orientation and angular velocity), the
+//! orientation tensor, and the independent verification.
 
 use super::{
-    finish, kernel_config, run_stages, stats_of_stages, Placed, RunError, RunOutcome,
-    SceneContainer, StagesFrom,
+    finish, kernel_config, resumed_kernel, run_stages, stats_of_stages, Checkpointer, Job, Placed,
+    RunError, RunOutcome, SceneContainer, StagesFrom,
 };
 use crate::boundary::{Boundary, PeriodicBox, WalledBox};
 use crate::io::packing::ParticleRecord;
@@ -12,7 +13,7 @@ use crate::io::scene::{ContainerSpec, EllipsoidSpec, Scene};
 use crate::kernel::{Edmd, Progress, StageReport};
 use crate::protocol::rsa::rsa_spheres;
 use crate::queue::{CalendarQueue, EventQueue, HeapQueue, QueueKind};
-use crate::shape::{prediction_failures, Ellipsoid, Spin, Vec3};
+use crate::shape::{Ellipsoid, Spin, Vec3};
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion};
 use rand::{Rng, SeedableRng};
 use rand_distr::StandardNormal;
@@ -21,6 +22,7 @@ use rand_xoshiro::Xoshiro256PlusPlus;
 /// Runs a validated scene whose `[particles.ellipsoid]` is set.
 pub(super) fn run_ellipsoid_scene(
     scene: &Scene,
+    job: &Job,
     on_stage: &mut dyn FnMut(usize, &StageReport),
     on_progress: &mut dyn FnMut(usize, &Progress),
 ) -> Result<RunOutcome, RunError> {
@@ -33,26 +35,29 @@ pub(super) fn run_ellipsoid_scene(
     let min = Vec3::zeros();
     let len = Vec3::from(*size);
     if periodic.iter().all(|&p| p) {
-        dispatch_queue(scene, PeriodicBox { min, len }, on_stage, on_progress)
+        dispatch_queue(scene, job, PeriodicBox { min, len }, on_stage, on_progress)
     } else {
         let walled = WalledBox {
             min,
             max: min + len,
             periodic: *periodic,
         };
-        dispatch_queue(scene, walled, on_stage, on_progress)
+        dispatch_queue(scene, job, walled, on_stage, on_progress)
     }
 }
 
 fn dispatch_queue<B: Boundary + SceneContainer>(
     scene: &Scene,
+    job: &Job,
     boundary: B,
     on_stage: &mut dyn FnMut(usize, &StageReport),
     on_progress: &mut dyn FnMut(usize, &Progress),
 ) -> Result<RunOutcome, RunError> {
     match scene.queue {
-        QueueKind::Heap => run_with::<B, HeapQueue>(scene, boundary, on_stage, on_progress),
-        QueueKind::Calendar => run_with::<B, CalendarQueue>(scene, boundary, on_stage, on_progress),
+        QueueKind::Heap => run_with::<B, HeapQueue>(scene, job, boundary, on_stage, on_progress),
+        QueueKind::Calendar => {
+            run_with::<B, CalendarQueue>(scene, job, boundary, on_stage, on_progress)
+        }
     }
 }
 
@@ -92,44 +97,15 @@ fn random_orientation<R: Rng>(rng: &mut R) -> UnitQuaternion<f64> {
 
 fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
     scene: &Scene,
+    job: &Job,
     boundary: B,
     on_stage: &mut dyn FnMut(usize, &StageReport),
     on_progress: &mut dyn FnMut(usize, &Progress),
 ) -> Result<RunOutcome, RunError> {
     let started = std::time::Instant::now();
-    let spec = scene
-        .particles
-        .ellipsoid
-        .as_ref()
-        .expect("an ellipsoid scene");
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(scene.seed);
+    // Drawn first from the seed, so a resumed run draws the same sizes again.
     let true_diameters = scene.true_diameters(&mut rng);
-    let scale = scene.seed_scale(&true_diameters);
-    let seeding: Vec<f64> = true_diameters.iter().map(|d| scale * d).collect();
-    let axes = semi_axes_of(&seeding, spec, &mut rng);
-    let bounding: Vec<f64> = axes.iter().map(|a| a.max()).collect();
-    let centres = rsa_spheres(
-        &boundary,
-        &bounding,
-        0.0,
-        0.0,
-        scene.particles.rsa_max_failures,
-        &mut rng,
-    )?;
-    let seeding_seconds = started.elapsed().as_secs_f64();
-    let spins: Vec<Spin> = (0..axes.len())
-        .map(|_| Spin {
-            orientation: random_orientation(&mut rng),
-            omega: Vec3::zeros(),
-        })
-        .collect();
-    let shapes = axes
-        .iter()
-        .map(|a| Ellipsoid {
-            predictor: spec.predictor,
-            ..Ellipsoid::new(*a)
-        })
-        .collect();
     // Ellipsoids are volume-equivalent to spheres of the true diameters.
     let full_size_fraction = true_diameters
         .iter()
@@ -137,24 +113,30 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
         .sum::<f64>()
         / boundary.volume();
     let original = boundary.clone();
-    let failures_before = prediction_failures();
-    let mut kernel: Edmd<Ellipsoid, B, Q> = Edmd::with_spins(
-        centres,
-        shapes,
-        spins,
-        boundary,
-        kernel_config(scene),
-        &mut rng,
-    );
-    // No checkpoints: they are written for sphere kernels only.
+    let (mut kernel, from, seeding_seconds): (Edmd<Ellipsoid, B, Q>, _, _) = match job.resume {
+        None => {
+            let (kernel, seeding_seconds) =
+                seeded_kernel(scene, &true_diameters, boundary, &mut rng, started)?;
+            (kernel, StagesFrom::start(), seeding_seconds)
+        }
+        Some(file) => {
+            let (kernel, from) = resumed_kernel(scene, file, boundary)?;
+            (kernel, from, 0.0)
+        }
+    };
+    let mut checkpointer = Checkpointer::of(job);
     let done = run_stages(
         scene,
         &mut kernel,
         full_size_fraction,
-        StagesFrom::start(),
+        from,
         on_stage,
         on_progress,
-        &mut |_, _, _, _| {},
+        &mut |k, kernel, progress, reports| {
+            if let Some(c) = checkpointer.as_mut() {
+                c.at_barrier(k, progress, reports, kernel);
+            }
+        },
     )?;
     // Back to the order of the seeding, which the kernel permutes for cache locality.
     let mut order: Vec<u32> = vec![0; kernel.particles().len()];
@@ -184,9 +166,15 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
         "orientation_eigenvalue_ratio".into(),
         serde_json::json!(ratio),
     );
+    // Over the whole run, a resumed one included (the counters are in the checkpoint).
+    let failures: u64 = done
+        .reports
+        .iter()
+        .map(|r| r.counts.prediction_failures)
+        .sum();
     stats.extra.insert(
         "ellipsoid_prediction_failures".into(),
-        serde_json::json!(prediction_failures() - failures_before),
+        serde_json::json!(failures),
     );
     let placed = Placed {
         particles,
@@ -203,6 +191,51 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
         done.reports,
         seeding_seconds,
     )
+}
+
+/// A fresh kernel: bounding spheres of the seeding sizes placed by RSA, uniformly random
+/// orientations, thermal velocities (all drawn from `rng` after the true diameters); also
+/// the seconds spent seeding.
+fn seeded_kernel<B: Boundary, Q: EventQueue>(
+    scene: &Scene,
+    true_diameters: &[f64],
+    boundary: B,
+    rng: &mut Xoshiro256PlusPlus,
+    started: std::time::Instant,
+) -> Result<(Edmd<Ellipsoid, B, Q>, f64), RunError> {
+    let spec = scene
+        .particles
+        .ellipsoid
+        .as_ref()
+        .expect("an ellipsoid scene");
+    let scale = scene.seed_scale(true_diameters);
+    let seeding: Vec<f64> = true_diameters.iter().map(|d| scale * d).collect();
+    let axes = semi_axes_of(&seeding, spec, rng);
+    let bounding: Vec<f64> = axes.iter().map(|a| a.max()).collect();
+    let centres = rsa_spheres(
+        &boundary,
+        &bounding,
+        0.0,
+        0.0,
+        scene.particles.rsa_max_failures,
+        rng,
+    )?;
+    let seeding_seconds = started.elapsed().as_secs_f64();
+    let spins: Vec<Spin> = (0..axes.len())
+        .map(|_| Spin {
+            orientation: random_orientation(rng),
+            omega: Vec3::zeros(),
+        })
+        .collect();
+    let shapes = axes
+        .iter()
+        .map(|a| Ellipsoid {
+            predictor: spec.predictor,
+            ..Ellipsoid::new(*a)
+        })
+        .collect();
+    let kernel = Edmd::with_spins(centres, shapes, spins, boundary, kernel_config(scene), rng);
+    Ok((kernel, seeding_seconds))
 }
 
 /// The second-order orientation tensor `T = ⟨w wᵀ⟩` of the ellipsoids' `a` axes (body x,

@@ -50,8 +50,8 @@ use super::{first_falling_root, predict_sphere_sphere, Collidable, Growth, Vec3}
 use nalgebra::{Matrix3, UnitQuaternion};
 use rand::Rng;
 use rand_distr::StandardNormal;
+use std::cell::Cell;
 use std::f64::consts::PI;
-use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Gap below which two ellipsoids (or an ellipsoid and a wall) count as touching, relative to
 /// the smallest semi-axis involved.
@@ -60,16 +60,21 @@ pub const CONTACT_TOLERANCE: f64 = 1e-12;
 /// Most certified steps of one prediction before it is counted as a numerical failure.
 pub const MAX_STEPS: u32 = 500;
 
-static PREDICTION_FAILURES: AtomicU64 = AtomicU64::new(0);
+thread_local! {
+    /// Per thread, so that kernels running side by side (tests, parallel studies) count
+    /// only their own failures: a kernel runs on one thread.
+    static PREDICTION_FAILURES: Cell<u64> = const { Cell::new(0) };
+}
 
-/// Number of ellipsoid predictions that hit [`MAX_STEPS`] or met a singular configuration
-/// since the process started (each was handled conservatively, never by a panic).
+/// Number of ellipsoid predictions on this thread that hit [`MAX_STEPS`] or met a singular
+/// configuration since the thread started (each was handled conservatively, never by a
+/// panic). The kernel accumulates its share in `EventCounts::prediction_failures`.
 pub fn prediction_failures() -> u64 {
-    PREDICTION_FAILURES.load(Ordering::Relaxed)
+    PREDICTION_FAILURES.with(Cell::get)
 }
 
 fn count_failure() {
-    PREDICTION_FAILURES.fetch_add(1, Ordering::Relaxed);
+    PREDICTION_FAILURES.with(|c| c.set(c.get() + 1));
 }
 
 /// Which collision predictor an ellipsoid uses.
@@ -88,7 +93,7 @@ pub enum Predictor {
 
 /// A hard ellipsoid whose semi-axes grow in proportion: semi-axes `axes·s(t)`,
 /// `s(t) = s0 + g·t`.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Ellipsoid {
     /// Semi-axes along the body x, y, z axes relative to the largest (largest entry 1).
     pub axes: Vec3,
@@ -100,8 +105,8 @@ pub struct Ellipsoid {
     pub predictor: Predictor,
 }
 
-/// Orientation and angular velocity of an ellipsoid.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Orientation and angular velocity of an ellipsoid (serialised bit for bit in checkpoints).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Spin {
     /// Rotation from the body frame to the world frame at the particle's update time.
     pub orientation: UnitQuaternion<f64>,
@@ -517,10 +522,7 @@ pub fn predict_ellipsoid_pair(
                 n
             }
         };
-        let (gap, rate) = motion.gap_along(tau, &n);
-        if fresh || !reference.is_finite() {
-            reference = gap;
-        }
+        let (mut gap, mut rate) = motion.gap_along(tau, &n);
         if gap <= tolerance {
             if !fresh {
                 // Perhaps only a stale axis: look again along the converged one.
@@ -530,7 +532,10 @@ pub fn predict_ellipsoid_pair(
             let (n, l) = motion.separating_axis(tau, lambda, 60)?;
             lambda = l;
             axis = Some(n);
-            let (gap, rate) = motion.gap_along(tau, &n);
+            // The step below must be certified along this axis: a few Newton steps can leave
+            // λ far from the maximiser, whose axis then shows a negative gap (no bound at
+            // all) while the pair is still apart.
+            (gap, rate) = motion.gap_along(tau, &n);
             if gap <= tolerance {
                 if rate < 0.0 {
                     return Some(tau);
@@ -549,6 +554,9 @@ pub fn predict_ellipsoid_pair(
                 reference = f64::INFINITY;
                 continue;
             }
+        }
+        if fresh || !reference.is_finite() {
+            reference = gap;
         }
         if fresh && a.predictor == Predictor::Characteristic && gap < switch {
             if let Some(found) = characteristic_contact(&motion, tau, gap, rate, max_tau) {
@@ -665,6 +673,10 @@ impl Collidable for Ellipsoid {
     type Spin = Spin;
     const ROTATES: bool = true;
     const SHAPED_PLANE_CONTACT: bool = true;
+
+    fn numerical_failures() -> u64 {
+        prediction_failures()
+    }
 
     #[inline]
     fn bounding_radius(&self, t: f64) -> f64 {

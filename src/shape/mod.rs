@@ -75,6 +75,15 @@ pub trait Collidable: Clone + Send + Sync + 'static {
     /// other shapes).
     const SHAPED_PLANE_CONTACT: bool = false;
 
+    /// Numerical failures of this shape's predictions on the current thread so far (a
+    /// monotone counter; a prediction that gave up and answered conservatively). The kernel
+    /// adds what its intervals contribute to `EventCounts::prediction_failures`. Exact
+    /// predictors (the sphere) never fail.
+    #[inline]
+    fn numerical_failures() -> u64 {
+        0
+    }
+
     /// Radius of a sphere around the centre that contains the particle at time `t`.
     fn bounding_radius(&self, t: f64) -> f64;
     /// Rate of change of [`Collidable::bounding_radius`] (length/time).
