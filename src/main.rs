@@ -80,6 +80,15 @@ enum Command {
     Take(cli::take::TakeArgs),
     /// Write a commented sample scene.
     Init(cli::init::InitArgs),
+    /// Run the macro benchmarks; write a report (BENCHMARKS.md), a CSV and an SVG plot per
+    /// study into --out.
+    Bench(cli::bench::BenchArgs),
+    /// Internal: one memory measurement of `bench` in a fresh process (N QUEUE).
+    #[command(name = "bench-child-memory", hide = true)]
+    BenchChildMemory {
+        /// N and the queue.
+        args: Vec<String>,
+    },
 }
 
 fn main() -> ExitCode {
@@ -170,6 +179,8 @@ fn main() -> ExitCode {
         Some(Command::Export(args)) => cli::export::run(&args),
         Some(Command::Take(args)) => cli::take::run(&args),
         Some(Command::Init(args)) => cli::init::run(&args),
+        Some(Command::Bench(args)) => cli::bench::run(&args),
+        Some(Command::BenchChildMemory { args }) => cli::bench::child_memory(&args),
     }
 }
 
