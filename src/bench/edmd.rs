@@ -235,6 +235,18 @@ fn repeats_formula(quick: bool) -> &'static str {
     }
 }
 
+/// A study whose plot has one line per queue (x on a log axis).
+fn per_queue(table: Table, figure: Figure, [heap, calendar]: [Vec<(f64, f64)>; 2]) -> StudyOutput {
+    StudyOutput {
+        markdown: table.markdown(),
+        csv: table,
+        figure: figure
+            .log(true, false)
+            .with(Series::line("heap", heap))
+            .with(Series::line("calendar", calendar)),
+    }
+}
+
 // ---------------------------------------------------------------------------------------
 // Studies
 
@@ -303,15 +315,11 @@ pub fn equilibrium(ctx: &StudyContext) -> StudyOutput {
             }
         }
     }
-    let [heap, calendar] = points;
-    StudyOutput {
-        markdown: table.markdown(),
-        csv: table,
-        figure: Figure::new("Equilibrium fluid, φ = 0.50", "N", "collisions per second")
-            .log(true, false)
-            .with(Series::line("heap", heap))
-            .with(Series::line("calendar", calendar)),
-    }
+    per_queue(
+        table,
+        Figure::new("Equilibrium fluid, φ = 0.50", "N", "collisions per second"),
+        points,
+    )
 }
 
 /// The default jamming scene.
@@ -396,19 +404,15 @@ pub fn jamming(ctx: &StudyContext) -> StudyOutput {
             }
         }
     }
-    let [heap, calendar] = points;
-    StudyOutput {
-        markdown: table.markdown(),
-        csv: table,
-        figure: Figure::new(
+    per_queue(
+        table,
+        Figure::new(
             format!("Jamming {n} spheres, φ 0.3 → Z = 1e12"),
             "growth rate",
             "wall seconds",
-        )
-        .log(true, false)
-        .with(Series::line("heap", heap))
-        .with(Series::line("calendar", calendar)),
-    }
+        ),
+        points,
+    )
 }
 
 /// µs per event against N in a dense system, monodisperse and Fuller (paper 001, Fig. 4).
@@ -848,19 +852,15 @@ pub fn memory(ctx: &StudyContext) -> StudyOutput {
             }
         }
     }
-    let [heap, calendar] = points;
-    StudyOutput {
-        markdown: table.markdown(),
-        csv: table,
-        figure: Figure::new(
+    per_queue(
+        table,
+        Figure::new(
             "Peak memory per particle",
             "N",
             "(peak − baseline) bytes/particle",
-        )
-        .log(true, false)
-        .with(Series::line("heap", heap))
-        .with(Series::line("calendar", calendar)),
-    }
+        ),
+        points,
+    )
 }
 
 /// Runs the memory child `N QUEUE`; its peak and baseline resident bytes.

@@ -93,7 +93,7 @@ pub fn generate(
         let mut rve = random_rve(&boundary, &sizes, &mut rng);
         let settings = RelaxSettings {
             time_limit: Some(Duration::from_secs_f64(limit)),
-            ..settings.clone()
+            ..*settings
         };
         relax(&mut rve, &settings).map_err(|e| GenerationFailure::GaveUp {
             message: e.to_string(),
@@ -111,6 +111,19 @@ pub fn generate(
         seconds,
         min_gap: v.min_pair_gap,
     })
+}
+
+/// The paper's RVE: `n` spheres and `n` cylinders of aspect ratio `a` at fractions `fs`,
+/// `fc` in the periodic unit cube.
+fn unit_cube(n: usize, a: f64, fs: f64, fc: f64) -> MixtureSpec {
+    MixtureSpec {
+        sphere_fraction: fs,
+        cylinder_fraction: fc,
+        spheres: n,
+        cylinders: n,
+        aspect_ratio: a,
+        box_size: 1.0,
+    }
 }
 
 /// Which cells of the paper's tables [`paper_tables`] runs.
@@ -265,14 +278,7 @@ fn run_table(
             }
             any = true;
             cells += 1;
-            let spec = MixtureSpec {
-                sphere_fraction: fs,
-                cylinder_fraction: fc,
-                spheres: n,
-                cylinders: n,
-                aspect_ratio: a,
-                box_size: 1.0,
-            };
+            let spec = unit_cube(n, a, fs, fc);
             let mut times = Vec::new();
             let mut failed = 0;
             let mut bound = false;
@@ -395,14 +401,7 @@ pub fn relaxer(ctx: &StudyContext) -> StudyOutput {
     } else {
         (30, 5.0, 0.15, 0.30, 8, 10.0)
     };
-    let spec = MixtureSpec {
-        sphere_fraction: fs,
-        cylinder_fraction: fc,
-        spheres: n,
-        cylinders: n,
-        aspect_ratio: a,
-        box_size: 1.0,
-    };
+    let spec = unit_cube(n, a, fs, fc);
     let defaults = RelaxSettings::default();
     let mut table = Table::new(
         "relaxer: time step and force rescaling",
@@ -433,7 +432,7 @@ pub fn relaxer(ctx: &StudyContext) -> StudyOutput {
             dt,
             RelaxSettings {
                 time_step: dt,
-                ..defaults.clone()
+                ..defaults
             },
         ));
     }
@@ -443,7 +442,7 @@ pub fn relaxer(ctx: &StudyContext) -> StudyOutput {
             max,
             RelaxSettings {
                 max_prefactor: max,
-                ..defaults.clone()
+                ..defaults
             },
         ));
     }
