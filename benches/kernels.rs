@@ -4,7 +4,7 @@
 //!   receding pairs of growing unit spheres (the EDMD kernel's sphere collision time);
 //! * `intersection/sphere_cylinder`, `intersection/cylinder_cylinder/a` — the exact
 //!   intersection tests of paper 000 (Alg. 1–4) on random pairs whose bounding spheres
-//!   overlap (about half intersect), aspect ratios a = 3 and 10;
+//!   overlap, aspect ratios a = 3 and 10;
 //! * `cells/transfer/N` — moving one body to a neighbouring cell of a [`CellGrid`] holding N
 //!   bodies (remove + insert; cell width 1, density 1 body per cell).
 //!
