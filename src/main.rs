@@ -88,6 +88,15 @@ enum Command {
     Init(cli::init::InitArgs),
     /// Draw an SVG figure: sieve curve, size histogram, section, or convergence of a run.
     Plot(cli::plot::PlotArgs),
+    /// Run the macro benchmarks; write a report (BENCHMARKS.md), a CSV and an SVG plot per
+    /// study into --out.
+    Bench(cli::bench::BenchArgs),
+    /// Internal: one memory measurement of `bench` in a fresh process (N QUEUE).
+    #[command(name = "bench-child-memory", hide = true)]
+    BenchChildMemory {
+        /// N and the queue.
+        args: Vec<String>,
+    },
 }
 
 fn main() -> ExitCode {
@@ -191,6 +200,8 @@ fn main() -> ExitCode {
         Some(Command::Take(args)) => cli::take::run(&args),
         Some(Command::Init(args)) => cli::init::run(&args),
         Some(Command::Plot(args)) => cli::plot::run(&args),
+        Some(Command::Bench(args)) => cli::bench::run(&args),
+        Some(Command::BenchChildMemory { args }) => cli::bench::child_memory(&args),
     }
 }
 

@@ -1,0 +1,335 @@
+//! Ellipsoid studies (paper 004, Ghossein & Lévesque 2013): the cost and accuracy of the two
+//! collision predictors on random pairs ([`predictor`]), and the paper's Table 2 cases beside
+//! densepack with both predictors ([`table2`]).
+//!
+//! Accuracy is judged by the independent check: the Perram–Wertheim contact scale of
+//! [`crate::verify::contact_scale`] at each predicted contact (< 1 would be an overlap), and
+//! for whole runs the smallest gap that [`crate::verify`] finds in the written packing. The
+//! contact tolerance of the predictors is a constant of the kernel (10⁻¹² of the smallest
+//! semi-axis), not a setting, so it is not swept.
+
+use super::{median, spread, Figure, Series, StudyContext, StudyOutput, Table};
+use crate::io::scene::Scene;
+use crate::run::run_scene;
+use crate::shape::{predict_ellipsoid_pair, Ellipsoid, Predictor, Spin, Vec3};
+use crate::verify::contact_scale;
+use nalgebra::{Matrix3, UnitQuaternion};
+use rand::{Rng, SeedableRng};
+use rand_distr::StandardNormal;
+use rand_xoshiro::Xoshiro256PlusPlus;
+use std::time::Instant;
+
+/// Both predictors with their scene names.
+pub const PREDICTORS: [(Predictor, &str); 2] = [
+    (Predictor::SeparatingAxis, "separating_axis"),
+    (Predictor::Characteristic, "characteristic"),
+];
+
+/// Two equal ellipsoids in relative motion: `b` sits at `dr` from `a` and moves at `dv`
+/// relative to it; both spin.
+pub struct Pair {
+    /// The shape of both.
+    pub a: Ellipsoid,
+    /// Orientation and angular velocity of the first.
+    pub sa: Spin,
+    /// Orientation and angular velocity of the second.
+    pub sb: Spin,
+    /// Centre offset at time 0.
+    pub dr: Vec3,
+    /// Relative velocity.
+    pub dv: Vec3,
+}
+
+fn normal3<R: Rng>(rng: &mut R) -> Vec3 {
+    Vec3::new(
+        rng.sample(StandardNormal),
+        rng.sample(StandardNormal),
+        rng.sample(StandardNormal),
+    )
+}
+
+fn m_of(q: &UnitQuaternion<f64>, axes: &Vec3) -> [[f64; 3]; 3] {
+    let r = q.to_rotation_matrix();
+    let m = r.matrix() * Matrix3::from_diagonal(&axes.component_mul(axes)) * r.matrix().transpose();
+    std::array::from_fn(|i| std::array::from_fn(|j| m[(i, j)]))
+}
+
+impl Pair {
+    /// The Perram–Wertheim contact scale at time `tau` by the independent check
+    /// ([`contact_scale`]): < 1 means overlap.
+    pub fn scale_at(&self, tau: f64) -> f64 {
+        let rot = |s: &Spin| UnitQuaternion::from_scaled_axis(s.omega * tau) * s.orientation;
+        let d = self.dr + self.dv * tau;
+        let axes = self.a.semi_axes(tau);
+        contact_scale(
+            &m_of(&rot(&self.sa), &axes),
+            &m_of(&rot(&self.sb), &axes),
+            &[d.x, d.y, d.z],
+        )
+    }
+
+    /// The first contact time in [0, 2] by `predictor`.
+    pub fn predict(&self, predictor: Predictor) -> Option<f64> {
+        let a = Ellipsoid {
+            predictor,
+            ..self.a
+        };
+        predict_ellipsoid_pair(&a, &a, &self.sa, &self.sb, &self.dr, &self.dv, 0.0, 2.0)
+    }
+}
+
+/// Random non-overlapping pairs of prolate spheroids (largest semi-axis 1) whose bounding
+/// spheres meet within the window, the only pairs that reach the ellipsoid predictor.
+pub fn pairs(ratio: f64, n: usize) -> Vec<Pair> {
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(17);
+    let a = Ellipsoid::new(Vec3::new(1.0, 1.0 / ratio, 1.0 / ratio));
+    let mut out = Vec::new();
+    while out.len() < n {
+        let dir = normal3(&mut rng).normalize();
+        let pair = Pair {
+            a,
+            sa: Spin {
+                orientation: UnitQuaternion::from_scaled_axis(normal3(&mut rng)),
+                omega: normal3(&mut rng),
+            },
+            sb: Spin {
+                orientation: UnitQuaternion::from_scaled_axis(normal3(&mut rng)),
+                omega: normal3(&mut rng),
+            },
+            dr: dir * rng.gen_range(0.3..2.0),
+            dv: -dir * rng.gen_range(0.0..1.5) + normal3(&mut rng) * 0.5,
+        };
+        if pair.scale_at(0.0) > 1.001 {
+            out.push(pair);
+        }
+    }
+    out
+}
+
+/// Time per prediction and accuracy of both predictors on random pairs of prolate spheroids.
+pub fn predictor(ctx: &StudyContext) -> StudyOutput {
+    let (ratios, count, repeats): (&[f64], usize, usize) = if ctx.quick {
+        (&[1.5, 5.0], 300, 3)
+    } else {
+        (&[1.5, 5.0, 20.0, 50.0], 2000, 5)
+    };
+    let mut table = Table::new(
+        "ellipsoid predictors: time per prediction against accuracy",
+        &format!(
+            "{count} random non-overlapping pairs of prolate spheroids per aspect ratio (largest \
+             semi-axis 1; random orientations, angular velocities and approach; bounding \
+             spheres meet within the window of 2 time units; seed 17). µs/prediction: median \
+             over {repeats} passes over the pairs, spread = (max − min)/median. Worst overlap = \
+             1 − the smallest Perram–Wertheim contact scale the independent check finds at a \
+             predicted contact (> 0: overlap; rounding is ~1e-14; verify accepts 1e-9). Agree: \
+             same contact (or none) as separating_axis within 1e-6 relative."
+        ),
+        &[
+            "aspect ratio",
+            "predictor",
+            "µs/prediction",
+            "spread",
+            "contacts",
+            "agree with separating_axis",
+            "worst overlap (1 − scale)",
+        ],
+    );
+    let mut series: Vec<Series> = PREDICTORS
+        .iter()
+        .map(|(_, name)| Series::points(*name, Vec::new()))
+        .collect();
+    let mut all = Vec::new();
+    let (mut faster, mut worst_all) = (0, f64::NEG_INFINITY);
+    for &ratio in ratios {
+        let set = pairs(ratio, count);
+        let reference: Vec<Option<f64>> = set
+            .iter()
+            .map(|p| p.predict(Predictor::SeparatingAxis))
+            .collect();
+        let mut timings = [0.0; 2];
+        for (k, (mode, name)) in PREDICTORS.into_iter().enumerate() {
+            let mut got = Vec::new();
+            let micros: Vec<f64> = (0..repeats)
+                .map(|_| {
+                    let start = Instant::now();
+                    got = set.iter().map(|p| p.predict(mode)).collect();
+                    start.elapsed().as_secs_f64() * 1e6 / set.len() as f64
+                })
+                .collect();
+            let mut worst = f64::INFINITY;
+            let (mut contacts, mut agree) = (0, 0);
+            for ((p, g), r) in set.iter().zip(&got).zip(&reference) {
+                if let Some(tau) = g {
+                    contacts += 1;
+                    worst = worst.min(p.scale_at(*tau));
+                }
+                match (g, r) {
+                    (Some(x), Some(y)) if (x - y).abs() <= 1e-6 * (1.0 + y) => agree += 1,
+                    (None, None) => agree += 1,
+                    _ => {}
+                }
+            }
+            let us = median(micros.clone());
+            timings[k] = us;
+            worst_all = worst_all.max(1.0 - worst);
+            series[k].points.push((us, 1.0 - worst));
+            all.push((us, 1.0 - worst));
+            table.row(vec![
+                format!("{ratio}"),
+                name.into(),
+                format!("{us:.2}"),
+                format!("{:.2}", spread(&micros)),
+                contacts.to_string(),
+                format!("{agree}/{}", set.len()),
+                format!("{:.2e}", 1.0 - worst),
+            ]);
+        }
+        if timings[0] < timings[1] {
+            faster += 1;
+        }
+    }
+    let mut figure = Figure::new(
+        "Ellipsoid predictors: time against worst overlap (one point per aspect ratio)",
+        "µs per prediction",
+        "worst overlap 1 − contact scale",
+    )
+    .log(true, false);
+    figure.series = series;
+    figure = figure.with(Series::pareto_front("Pareto front", &all));
+    StudyOutput {
+        markdown: table.markdown()
+            + &format!(
+                "`separating_axis` (the default: never late by construction) was the faster at \
+                 {faster} of {} aspect ratios; the worst overlap of either predictor was \
+                 {worst_all:.1e} of contact (verify's tolerance: 1e-9).\n\n",
+                ratios.len()
+            ),
+        csv: table,
+        figure,
+    }
+}
+
+/// Paper 004, Table 2: the MATLAB code's time beside densepack's, both predictors.
+pub fn table2(ctx: &StudyContext) -> StudyOutput {
+    let cases = [
+        (
+            "R1 = R2 = 2 (prolate) → φ 0.60",
+            include_str!("../../examples/scenes/ellipsoids_prolate_r2_n40.toml"),
+            30,
+            54.3,
+        ),
+        (
+            "R1 = 5, R2 = 1 (oblate) → φ 0.55",
+            include_str!("../../examples/scenes/ellipsoids_oblate_r5_n45.toml"),
+            45,
+            65.2,
+        ),
+    ];
+    let mut table = Table::new(
+        "paper 004, Table 2: periodic ellipsoids grown to φ",
+        &format!(
+            "`examples/scenes/ellipsoids_prolate_r2_n40.toml` (N = 40: the minimum image needs \
+             N ≥ 38 at φ 0.60; the paper used 30) and `ellipsoids_oblate_r5_n45.toml`; the \
+             paper's times are its MATLAB code's. Speed-up = paper s / densepack wall s. \
+             Smallest gap: relative surface gap found by the independent check (negative would \
+             be an overlap). {}",
+            if ctx.quick {
+                "Quick: one seed (the scene's); the characteristic predictor on the R = 2 case only."
+            } else {
+                "Three seeds (the scene's, +1, +2): median wall s, spread = (max − min)/median."
+            }
+        ),
+        &[
+            "case",
+            "paper N",
+            "paper s",
+            "densepack N",
+            "predictor",
+            "runs",
+            "median wall s",
+            "spread",
+            "speed-up",
+            "final φ",
+            "smallest relative gap",
+        ],
+    );
+    let seeds = if ctx.quick { 1 } else { 3 };
+    let mut series: Vec<Series> = PREDICTORS
+        .iter()
+        .map(|(_, name)| Series::points(*name, Vec::new()))
+        .collect();
+    for (case, text, paper_n, paper_s) in cases {
+        let base = Scene::from_toml(text).expect("the shipped ellipsoid scene is valid");
+        for (k, (predictor, name)) in PREDICTORS.into_iter().enumerate() {
+            // Quick: the slower characteristic predictor on the first case only.
+            if ctx.quick && predictor == Predictor::Characteristic && paper_n != 30 {
+                continue;
+            }
+            let mut walls = Vec::new();
+            let mut phi = f64::NAN;
+            let mut gap = f64::INFINITY;
+            let mut n = 0;
+            let mut errors = Vec::new();
+            for s in 0..seeds {
+                let mut scene = base.clone();
+                scene.seed += s;
+                if let Some(e) = scene.particles.ellipsoid.as_mut() {
+                    e.predictor = predictor;
+                }
+                eprintln!("-- table 2 {case}, {name}, seed {}", scene.seed);
+                match run_scene(&scene, &mut |_, _| {}) {
+                    Ok(o) => {
+                        walls.push(o.stages.iter().map(|r| r.wall_seconds).sum::<f64>());
+                        phi = o.packing.stats.packing_fraction;
+                        n = o.packing.particles.len();
+                        gap = gap.min(o.verification.min_pair_gap_relative.unwrap_or(f64::NAN));
+                    }
+                    Err(e) => errors.push(e.to_string()),
+                }
+            }
+            let lead = vec![case.to_owned(), paper_n.to_string(), format!("{paper_s}")];
+            if walls.is_empty() {
+                table.failed_row(lead, &errors.join("; "));
+                continue;
+            }
+            let wall = median(walls.clone());
+            series[k].points.push((paper_s, paper_s / wall));
+            table.row(
+                [
+                    lead,
+                    vec![
+                        n.to_string(),
+                        name.into(),
+                        format!(
+                            "{}{}",
+                            walls.len(),
+                            if errors.is_empty() {
+                                String::new()
+                            } else {
+                                format!(" ({} failed: {})", errors.len(), errors.join("; "))
+                            }
+                        ),
+                        format!("{wall:.3}"),
+                        format!("{:.2}", spread(&walls)),
+                        format!("{:.0}×", paper_s / wall),
+                        format!("{phi:.4}"),
+                        format!("{gap:.2e}"),
+                    ],
+                ]
+                .concat(),
+            );
+        }
+    }
+    let mut figure = Figure::new(
+        "Paper 004 Table 2: speed-up of densepack over the paper",
+        "paper's time (s)",
+        "speed-up (paper s / densepack s)",
+    )
+    .log(false, true);
+    figure.series = series;
+    StudyOutput {
+        markdown: table.markdown(),
+        csv: table,
+        figure,
+    }
+}

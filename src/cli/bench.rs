@@ -1,0 +1,97 @@
+//! `densepack bench [--quick] [--only STUDY,...] [--out DIR]`: the macro benchmark suite of
+//! [`densepack::bench`], written as a report directory (`BENCHMARKS.md`, `<study>.csv`,
+//! `<study>.svg`).
+
+use clap::Args;
+use densepack::bench::{run_report, select, ReportOptions, StudyContext, STUDIES};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// The name of the hidden subcommand that runs one memory measurement in a child process.
+pub const CHILD_MEMORY: &str = "bench-child-memory";
+
+/// Arguments of `bench`.
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// Reduced sizes: the smallest rows of each study (a few minutes in all).
+    #[arg(long)]
+    quick: bool,
+    /// Run only these studies (comma-separated); `--list` names them.
+    #[arg(long, value_delimiter = ',', value_name = "STUDY,...")]
+    only: Option<Vec<String>>,
+    /// Output directory for BENCHMARKS.md, <study>.csv and <study>.svg (created if missing).
+    #[arg(long, default_value = "bench-report")]
+    out: PathBuf,
+    /// List the studies and exit.
+    #[arg(long)]
+    list: bool,
+}
+
+/// Runs `densepack bench`.
+pub fn run(args: &BenchArgs) -> ExitCode {
+    if args.list {
+        for s in STUDIES {
+            println!(
+                "{:<20} {}{}",
+                s.name,
+                s.summary,
+                if s.default {
+                    ""
+                } else {
+                    " [not run by default]"
+                }
+            );
+        }
+        return ExitCode::SUCCESS;
+    }
+    let studies = match select(args.only.as_deref()) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("error: --only: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    if cfg!(debug_assertions) {
+        eprintln!("warning: a debug build; benchmark numbers need `cargo build --release`");
+    }
+    let exe = match std::env::current_exe() {
+        Ok(p) => p.to_string_lossy().into_owned(),
+        Err(e) => {
+            eprintln!("error: cannot find this program's path for the memory child: {e}");
+            return ExitCode::from(1);
+        }
+    };
+    let options = ReportOptions {
+        studies: studies.iter().map(|s| s.name).collect(),
+        out: args.out.clone(),
+        command_line: std::env::args().collect::<Vec<_>>().join(" "),
+        context: StudyContext {
+            quick: args.quick,
+            memory_child: vec![exe, CHILD_MEMORY.into()],
+        },
+    };
+    match run_report(&options) {
+        Ok(path) => {
+            println!("wrote {}", path.display());
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: --out {}: {e}", args.out.display());
+            ExitCode::from(1)
+        }
+    }
+}
+
+/// The hidden child of the memory study: `densepack bench-child-memory N QUEUE`.
+pub fn child_memory(args: &[String]) -> ExitCode {
+    match densepack::bench::edmd::child_memory(args) {
+        Ok(lines) => {
+            print!("{lines}");
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,198 @@
+//! `densepack bench`: the report directory of a quick run of two fast studies (the numbers
+//! are not checked — performance is measured, not asserted — but the files must be complete
+//! and well-formed).
+
+mod common;
+
+use common::{densepack, temp_dir};
+
+/// RFC 4180 records (quoted fields may hold commas, quotes and line breaks); a test oracle
+/// independent of the writer.
+fn parse_csv(text: &str) -> Vec<Vec<String>> {
+    let mut records = Vec::new();
+    let mut record = Vec::new();
+    let mut field = String::new();
+    let mut quoted = false;
+    let mut chars = text.chars().peekable();
+    while let Some(c) = chars.next() {
+        match (quoted, c) {
+            (true, '"') if chars.peek() == Some(&'"') => {
+                field.push('"');
+                chars.next();
+            }
+            (true, '"') => quoted = false,
+            (true, c) => field.push(c),
+            (false, '"') if field.is_empty() => quoted = true,
+            (false, ',') => record.push(std::mem::take(&mut field)),
+            (false, '\n') => {
+                record.push(std::mem::take(&mut field));
+                records.push(std::mem::take(&mut record));
+            }
+            (false, c) => field.push(c),
+        }
+    }
+    assert!(!quoted, "unterminated quoted field");
+    assert!(
+        field.is_empty() && record.is_empty(),
+        "the last record lacks its line break"
+    );
+    records
+}
+
+fn column(records: &[Vec<String>], name: &str) -> Vec<String> {
+    let k = records[0]
+        .iter()
+        .position(|h| h == name)
+        .unwrap_or_else(|| panic!("no column {name} in {:?}", records[0]));
+    records[1..].iter().map(|r| r[k].clone()).collect()
+}
+
+/// The SVG parses as XML, its root is `<svg>`, and its text includes `title`.
+fn assert_svg(path: &std::path::Path, title: &str) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let doc = roxmltree::Document::parse(&text)
+        .unwrap_or_else(|e| panic!("{}: not well-formed XML: {e}", path.display()));
+    assert_eq!(doc.root_element().tag_name().name(), "svg");
+    let texts: String = doc
+        .descendants()
+        .filter(|n| n.is_text())
+        .filter_map(|n| n.text())
+        .collect();
+    assert!(
+        texts.contains(title),
+        "{}: no `{title}` in {texts}",
+        path.display()
+    );
+    assert!(
+        doc.descendants().any(|n| n.tag_name().name() == "circle"),
+        "{}: no data markers",
+        path.display()
+    );
+}
+
+#[test]
+fn quick_bench_writes_report_csv_and_svg_per_study() {
+    let dir = temp_dir("bench");
+    let out = dir.join("report");
+    let run = densepack(&[
+        "bench",
+        "--quick",
+        "--only",
+        "relaxer,ellipsoid-predictor",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+
+    let report = std::fs::read_to_string(out.join("BENCHMARKS.md")).unwrap();
+    for needle in [
+        "- CPU: ",
+        "- cores: ",
+        "- densepack: ",
+        "- command: `",
+        "bench --quick --only relaxer,ellipsoid-predictor",
+        "## ellipsoid-predictor",
+        "## relaxer",
+        "![relaxer](relaxer.svg)",
+        "_Total: ",
+    ] {
+        assert!(
+            report.contains(needle),
+            "no `{needle}` in the report:\n{report}"
+        );
+    }
+    // Suite order, not command-line order.
+    assert!(report.find("## ellipsoid-predictor") < report.find("## relaxer"));
+
+    // Relaxer: 5 time steps and 4 rescaling limits, 3 seeds each.
+    let relaxer = parse_csv(&std::fs::read_to_string(out.join("relaxer.csv")).unwrap());
+    assert_eq!(
+        relaxer[0],
+        [
+            "parameter",
+            "value",
+            "runs",
+            "failed",
+            "median s (successes)",
+            "spread",
+            "deepest residual overlap ℓ",
+            "smallest verified gap",
+        ]
+    );
+    assert_eq!(relaxer.len(), 1 + 9);
+    assert!(relaxer.iter().all(|r| r.len() == relaxer[0].len()));
+    let parameters = column(&relaxer, "parameter");
+    let values: Vec<f64> = column(&relaxer, "value")
+        .iter()
+        .map(|v| v.parse().unwrap())
+        .collect();
+    assert_eq!(
+        parameters.iter().filter(|p| *p == "time_step").count(),
+        5,
+        "{parameters:?}"
+    );
+    assert_eq!(
+        values[..5],
+        [0.025, 0.05, 0.1, 0.2, 0.4],
+        "time steps, in order"
+    );
+    assert_eq!(values[5..], [0.25, 1.0, 4.0, 16.0], "max prefactors");
+    for (runs, failed) in column(&relaxer, "runs")
+        .iter()
+        .zip(column(&relaxer, "failed"))
+    {
+        assert_eq!(runs, "3");
+        let failed: usize = failed.split(' ').next().unwrap().parse().unwrap();
+        assert!(failed <= 3);
+    }
+    for t in column(&relaxer, "median s (successes)") {
+        let t: f64 = t.parse().unwrap();
+        assert!(t.is_nan() || t > 0.0, "{t}");
+    }
+
+    // Ellipsoid predictors: 2 aspect ratios × 2 predictors, 300 pairs each.
+    let ell = parse_csv(&std::fs::read_to_string(out.join("ellipsoid-predictor.csv")).unwrap());
+    assert_eq!(ell.len(), 1 + 4);
+    assert_eq!(
+        column(&ell, "predictor"),
+        [
+            "separating_axis",
+            "characteristic",
+            "separating_axis",
+            "characteristic"
+        ]
+    );
+    assert_eq!(column(&ell, "aspect ratio"), ["1.5", "1.5", "5", "5"]);
+    for agree in column(&ell, "agree with separating_axis") {
+        let (k, n) = agree.split_once('/').unwrap();
+        assert_eq!(n, "300");
+        assert!(k.parse::<usize>().unwrap() <= 300);
+    }
+    for us in column(&ell, "µs/prediction") {
+        assert!(us.parse::<f64>().unwrap() > 0.0);
+    }
+
+    assert_svg(&out.join("relaxer.svg"), "Relaxer");
+    assert_svg(&out.join("ellipsoid-predictor.svg"), "Ellipsoid predictors");
+}
+
+#[test]
+fn bench_rejects_an_unknown_study_naming_it_and_the_allowed_ones() {
+    let dir = temp_dir("bench-bad");
+    let run = densepack(&[
+        "bench",
+        "--only",
+        "scaling,nonsense",
+        "--out",
+        dir.join("r").to_str().unwrap(),
+    ]);
+    assert_eq!(run.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(stderr.contains("`nonsense`"), "{stderr}");
+    assert!(stderr.contains("scaling, equilibrium"), "{stderr}");
+    assert!(!dir.join("r").exists(), "nothing written on bad input");
+}
