@@ -54,16 +54,36 @@ fn init_spheres_writes_a_scene_that_runs_with_json_progress_and_provenance() {
 }
 
 #[test]
-fn init_for_shapes_the_scene_format_cannot_describe_yet_fails_clearly() {
-    for kind in ["ellipsoids", "mixture"] {
-        let r = densepack(&["init", kind]);
-        assert_eq!(r.status.code(), Some(2));
-        assert!(r.stdout.is_empty());
-        let stderr = String::from_utf8_lossy(&r.stderr);
-        assert!(
-            stderr.contains("only `densepack init spheres` and"),
-            "{stderr}"
+fn init_ellipsoids_and_mixture_write_scenes_that_pack_their_shapes() {
+    let dir = temp_dir("init-shapes");
+    // (kind, record type, bodies of that type, other records)
+    for (kind, shape, count, others) in [
+        ("ellipsoids", "ellipsoid", 200, 0),
+        ("mixture", "cylinder", 30, 30),
+    ] {
+        let scene = dir.join(format!("{kind}.toml"));
+        let packing = dir.join(format!("{kind}.json"));
+        let init = densepack(&["init", kind, "--out", scene.to_str().unwrap()]);
+        assert!(init.status.success(), "{init:?}");
+        let run = densepack(&[
+            "run",
+            scene.to_str().unwrap(),
+            "--out",
+            packing.to_str().unwrap(),
+            "--quiet",
+        ]);
+        assert!(run.status.success(), "{kind}: {run:?}");
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&packing).unwrap()).unwrap();
+        let particles = json["particles"].as_array().unwrap();
+        let of_shape = particles.iter().filter(|p| p["type"] == shape).count();
+        assert_eq!(
+            (of_shape, particles.len() - of_shape),
+            (count, others),
+            "{kind}"
         );
+        let verify = densepack(&["verify", packing.to_str().unwrap()]);
+        assert!(verify.status.success(), "{kind}: {verify:?}");
     }
 }
 

@@ -13,9 +13,9 @@ pub enum Kind {
     Spheres,
     /// DIN B16 aggregates (4–16 mm) in a 50 mm walled cube, from `densepack take` (runnable).
     Concrete,
-    /// Ellipsoids.
+    /// 200 prolate spheroids (aspect ratio 1.5) in a periodic box, grown close to jamming.
     Ellipsoids,
-    /// Spheres and cylinders (fibres).
+    /// 30 spheres and 30 cylinders (aspect ratio 3) in the periodic unit cube, relaxed apart.
     Mixture,
 }
 
@@ -34,25 +34,16 @@ const SPHERES: &str = include_str!("../../examples/scenes/sample_spheres.toml");
 /// Written by `densepack take B16 --phi-m 0.7 --d-min 4 --box 50,50,50 --seed 1 --scene ..`
 /// (a test checks that the command still writes exactly this file).
 const CONCRETE: &str = include_str!("../../examples/scenes/concrete_b16_50mm.toml");
+const ELLIPSOIDS: &str = include_str!("../../examples/scenes/sample_ellipsoids.toml");
+const MIXTURE: &str = include_str!("../../examples/scenes/sample_mixture.toml");
 
 /// Runs `init`.
 pub fn run(args: &InitArgs) -> ExitCode {
     let text = match args.kind {
         Kind::Spheres => SPHERES,
         Kind::Concrete => CONCRETE,
-        Kind::Ellipsoids | Kind::Mixture => {
-            eprintln!(
-                "error: `densepack init {}`: scene files cannot describe {} yet in this version; \
-                 only `densepack init spheres` and `densepack init concrete` write runnable \
-                 scenes.",
-                format!("{:?}", args.kind).to_lowercase(),
-                match args.kind {
-                    Kind::Ellipsoids => "ellipsoids",
-                    _ => "sphere–cylinder mixtures",
-                }
-            );
-            return ExitCode::from(2);
-        }
+        Kind::Ellipsoids => ELLIPSOIDS,
+        Kind::Mixture => MIXTURE,
     };
     match &args.out {
         None => {
