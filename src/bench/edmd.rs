@@ -158,15 +158,7 @@ fn scene(queue: &str, seed: u64, particles: Particles, tuning: Tuning, stages: &
 fn run(label: &str, scene: &Scene) -> Result<Vec<StageReport>, String> {
     eprintln!("-- {label}");
     let mut log = |k: usize, r: &StageReport| {
-        eprintln!(
-            "   stage {k}: {} after {} events ({} collisions) in {:.2} s, φ = {:.5}, Z = {:.4e}",
-            r.stop_reason.as_str(),
-            r.counts.events,
-            r.counts.collisions,
-            r.wall_seconds,
-            r.packing_fraction,
-            r.reduced_pressure
-        );
+        eprintln!("   stage {k}: {}", r.summary());
     };
     run_scene(scene, &mut log)
         .map(|outcome| outcome.stages)

@@ -136,15 +136,7 @@ impl Reporter {
 
     /// Called when a stage ends.
     pub fn stage_done(&mut self, k: usize, r: &StageReport) {
-        let line = format!(
-            "stage {k}: {} after {} events ({} collisions) in {:.2} s, φ = {:.6}, Z = {:.4e}",
-            r.stop_reason.as_str(),
-            r.counts.events,
-            r.counts.collisions,
-            r.wall_seconds,
-            r.packing_fraction,
-            r.reduced_pressure
-        );
+        let line = format!("stage {k}: {}", r.summary());
         if let Some(log) = &mut self.run_log {
             log.push(&stage_record(k, r));
         }

@@ -127,6 +127,21 @@ pub struct StageReport {
     pub reduced_pressure_stderr: Option<f64>,
 }
 
+impl StageReport {
+    /// One line for people: why it stopped, events, collisions, wall seconds, φ and `Z`.
+    pub fn summary(&self) -> String {
+        format!(
+            "{} after {} events ({} collisions) in {:.2} s, φ = {:.6}, Z = {:.4e}",
+            self.stop_reason.as_str(),
+            self.counts.events,
+            self.counts.collisions,
+            self.wall_seconds,
+            self.packing_fraction,
+            self.reduced_pressure
+        )
+    }
+}
+
 /// Multiple of its planned events after which a barrier interval ends early.
 const EARLY_BARRIER_EVENTS: f64 = 16.0;
 
