@@ -333,11 +333,7 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(scene.seed);
     // Drawn first from the seed, so a resumed run draws the same sizes again.
     let true_diameters = scene.true_diameters(&mut rng);
-    let full_size_fraction = true_diameters
-        .iter()
-        .map(|d| std::f64::consts::PI / 6.0 * d * d * d)
-        .sum::<f64>()
-        / boundary.volume();
+    let full_size_fraction = sphere_fraction(&true_diameters, boundary.volume());
     let original = boundary.clone();
     // The random generator is consumed by seeding and the initial velocities only, so a
     // checkpoint (taken at a later barrier) needs none of its state.
@@ -394,19 +390,14 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
             (kernel, from, 0.0)
         }
     };
-    let mut checkpointer = Checkpointer::of(job);
     let done = run_stages(
         scene,
+        job,
         &mut kernel,
         full_size_fraction,
         from,
         on_stage,
         on_progress,
-        &mut |k, kernel, progress, reports| {
-            if let Some(c) = checkpointer.as_mut() {
-                c.at_barrier(k, progress, reports, kernel);
-            }
-        },
     )?;
     // The kernel's other arrays are freed before the output is built, so that the output
     // and the verification's own index do not add to the kernel's peak memory.
@@ -552,24 +543,33 @@ fn walls_moved_by(spec: &StageSpec) -> f64 {
     }
 }
 
-/// Shown the stage index, the kernel `K` at a time barrier, the stage's progress and the
-/// finished stages' reports.
-type AtBarrier<'a, K> = dyn FnMut(usize, &K, &StageProgress, &[StageReport]) + 'a;
+/// Packing fraction of spheres of diameters `d` (or of particles volume-equivalent to them)
+/// in a container of volume `volume`.
+fn sphere_fraction(d: &[f64], volume: f64) -> f64 {
+    d.iter()
+        .map(|d| std::f64::consts::PI / 6.0 * d * d * d)
+        .sum::<f64>()
+        / volume
+}
 
 /// Runs the scene's stages in order from `from`; the first stage that misses its goal fails
 /// the run. `full_size_fraction` is the packing fraction of the particles at their true
-/// sizes. At every time barrier `on_progress` hears of the stage and `at_barrier` is shown
-/// the stage index, the kernel, the stage's progress and the finished stages' reports (the
-/// state a checkpoint stores).
-fn run_stages<S: Collidable, B: Boundary + SceneContainer, Q: EventQueue>(
+/// sizes. At every time barrier `on_progress` hears of the stage, and a job that asks for
+/// checkpoints writes one when its interval has passed.
+fn run_stages<S, B: Boundary + SceneContainer, Q: EventQueue>(
     scene: &Scene,
+    job: &Job,
     kernel: &mut Edmd<S, B, Q>,
     full_size_fraction: f64,
     from: StagesFrom,
     on_stage: &mut dyn FnMut(usize, &StageReport),
     on_progress: &mut dyn FnMut(usize, &Progress),
-    at_barrier: &mut AtBarrier<'_, Edmd<S, B, Q>>,
-) -> Result<StagesDone, RunError> {
+) -> Result<StagesDone, RunError>
+where
+    S: Collidable + serde::Serialize,
+    S::Spin: serde::Serialize,
+{
+    let mut checkpointer = Checkpointer::of(job);
     let StagesFrom {
         stage: first,
         progress: mut resumed,
@@ -619,7 +619,9 @@ fn run_stages<S: Collidable, B: Boundary + SceneContainer, Q: EventQueue>(
                 }
                 barrier += 1;
             }
-            at_barrier(k, kernel, p, &reports);
+            if let Some(c) = checkpointer.as_mut() {
+                c.at_barrier(k, p, &reports, kernel);
+            }
         });
         on_stage(k, &report);
         // A gap stage succeeds only when its time is up (every radius gained Δd/2); jamming

@@ -58,6 +58,29 @@ pub struct Verification {
 }
 
 impl Verification {
+    /// A verification of `particles` particles that has found nothing yet, with a
+    /// per-particle nearest-gap slot for each of `nearest` particles.
+    fn new(particles: usize, nearest: usize) -> Self {
+        Self {
+            particles,
+            packing_fraction: 0.0,
+            min_pair_gap_relative: None,
+            min_pair_gap: None,
+            min_wall_gap: None,
+            violations: Vec::new(),
+            violation_count: 0,
+            nearest_gap_relative: vec![f64::INFINITY; nearest],
+        }
+    }
+
+    /// Counts a violation; the first 20 are kept for the report.
+    fn violate(&mut self, message: String) {
+        self.violation_count += 1;
+        if self.violations.len() < 20 {
+            self.violations.push(message);
+        }
+    }
+
     /// Whether the packing satisfies all constraints.
     pub fn ok(&self) -> bool {
         self.violation_count == 0
@@ -112,28 +135,10 @@ pub fn verify(packing: &Packing) -> Verification {
         .collect();
     let gap = packing.min_gap;
     let wall_gap = packing.wall_gap();
-    let mut out = Verification {
-        particles: balls.len(),
-        packing_fraction: 0.0,
-        min_pair_gap_relative: None,
-        min_pair_gap: None,
-        min_wall_gap: None,
-        violations: Vec::new(),
-        violation_count: 0,
-        nearest_gap_relative: vec![f64::INFINITY; balls.len()],
-    };
-    let violate = |out: &mut Verification, msg: String| {
-        out.violation_count += 1;
-        if out.violations.len() < 20 {
-            out.violations.push(msg);
-        }
-    };
+    let mut out = Verification::new(balls.len(), balls.len());
     for (i, b) in balls.iter().enumerate() {
         if !(b.r.is_finite() && b.r > 0.0 && b.c.iter().all(|x| x.is_finite())) {
-            violate(
-                &mut out,
-                format!("particle {i}: non-finite centre or radius ≤ 0"),
-            );
+            out.violate(format!("particle {i}: non-finite centre or radius ≤ 0"));
         }
     }
     let (lo, hi, periodic, volume) = match &packing.container {
@@ -171,10 +176,9 @@ pub fn verify(packing: &Packing) -> Verification {
         {
             let norm = orientation.iter().map(|x| x * x).sum::<f64>().sqrt();
             if !(semi_axes.iter().all(|a| a.is_finite() && *a > 0.0) && (norm - 1.0).abs() < 1e-9) {
-                violate(
-                    &mut out,
-                    format!("particle {i}: semi-axes ≤ 0 or orientation not a unit quaternion"),
-                );
+                out.violate(format!(
+                    "particle {i}: semi-axes ≤ 0 or orientation not a unit quaternion"
+                ));
             }
         }
     }
@@ -209,27 +213,21 @@ pub fn verify(packing: &Packing) -> Verification {
         };
         for k in 0..3 {
             if periodic[k] && !(b.c[k] >= lo[k] && b.c[k] <= hi[k]) {
-                violate(
-                    &mut out,
-                    format!(
-                        "particle {i}: centre {:?} is not wrapped into the periodic box",
-                        b.c
-                    ),
-                );
+                out.violate(format!(
+                    "particle {i}: centre {:?} is not wrapped into the periodic box",
+                    b.c
+                ));
             }
         }
         if wall_distance.is_finite() {
             let g = wall_distance - b.r;
             out.min_wall_gap = Some(out.min_wall_gap.map_or(g, |m: f64| m.min(g)));
             if wall_distance < (1.0 - TOLERANCE) * b.r + wall_gap {
-                violate(
-                    &mut out,
-                    format!(
-                        "particle {i} (radius {}) is {wall_distance} from a wall: needs ≥ {}",
-                        b.r,
-                        b.r + wall_gap
-                    ),
-                );
+                out.violate(format!(
+                    "particle {i} (radius {}) is {wall_distance} from a wall: needs ≥ {}",
+                    b.r,
+                    b.r + wall_gap
+                ));
             }
         }
     }
@@ -338,13 +336,10 @@ pub fn verify(packing: &Packing) -> Verification {
                                 out.min_pair_gap_relative = Some(rel);
                             }
                             if scale.is_nan() || scale < 1.0 - TOLERANCE {
-                                violate(
-                                    &mut out,
-                                    format!(
-                                        "particles {i} and {j} overlap: they touch only when \
+                                out.violate(format!(
+                                    "particles {i} and {j} overlap: they touch only when \
                                          scaled by {scale} (Perram–Wertheim)"
-                                    ),
-                                );
+                                ));
                             }
                             continue;
                         }
@@ -361,16 +356,13 @@ pub fn verify(packing: &Packing) -> Verification {
                             out.min_pair_gap = Some(abs);
                         }
                         if dist < (1.0 - TOLERANCE) * sum + gap {
-                            violate(
-                                &mut out,
-                                format!(
-                                    "particles {i} and {j} are {dist} apart: needs ≥ {} \
+                            out.violate(format!(
+                                "particles {i} and {j} are {dist} apart: needs ≥ {} \
                                      (radii {} + {}, gap {gap})",
-                                    sum + gap,
-                                    bi.r,
-                                    bj.r
-                                ),
-                            );
+                                sum + gap,
+                                bi.r,
+                                bj.r
+                            ));
                         }
                     }
                 }
@@ -585,34 +577,13 @@ fn check_pair(a_full: &Convex, b_full: &Convex) -> PairCheck {
 /// bodies eroded by [`TOLERANCE`] times their radius. Pairs are enumerated directly
 /// (`O(N²)` bounding-sphere tests: mixture RVEs hold hundreds of bodies).
 pub fn verify_convex(packing: &Packing) -> Verification {
-    let mut out = Verification {
-        particles: packing.particles.len(),
-        packing_fraction: 0.0,
-        min_pair_gap_relative: None,
-        min_pair_gap: None,
-        min_wall_gap: None,
-        violations: Vec::new(),
-        violation_count: 0,
-        nearest_gap_relative: Vec::new(),
-    };
-    let violate = |out: &mut Verification, msg: String| {
-        out.violation_count += 1;
-        if out.violations.len() < 20 {
-            out.violations.push(msg);
-        }
-    };
+    let mut out = Verification::new(packing.particles.len(), 0);
     let ContainerRecord::Box { min, max, periodic } = &packing.container else {
-        violate(
-            &mut out,
-            "cylinders are supported in periodic boxes only".into(),
-        );
+        out.violate("cylinders are supported in periodic boxes only".into());
         return out;
     };
     if periodic.iter().any(|p| !p) {
-        violate(
-            &mut out,
-            "cylinders are supported in fully periodic boxes only".into(),
-        );
+        out.violate("cylinders are supported in fully periodic boxes only".into());
         return out;
     }
     let lo = Vector3::from(*min);
@@ -646,23 +617,19 @@ pub fn verify_convex(packing: &Packing) -> Verification {
             }
             #[allow(unreachable_patterns)]
             _ => {
-                violate(&mut out, format!("particle {i}: unsupported in a mixture"));
+                out.violate(format!("particle {i}: unsupported in a mixture"));
                 continue;
             }
         };
         let c = body.center();
         if !ok || c.iter().any(|x| !x.is_finite()) {
-            violate(
-                &mut out,
-                format!("particle {i}: non-finite or non-positive size"),
-            );
+            out.violate(format!("particle {i}: non-finite or non-positive size"));
             continue;
         }
         if (0..3).any(|k| !(c[k] >= lo[k] && c[k] <= lo[k] + len[k])) {
-            violate(
-                &mut out,
-                format!("particle {i}: centre {c:?} is not wrapped into the periodic box"),
-            );
+            out.violate(format!(
+                "particle {i}: centre {c:?} is not wrapped into the periodic box"
+            ));
         }
         bodies.push((i, body));
     }
@@ -681,12 +648,11 @@ pub fn verify_convex(packing: &Packing) -> Verification {
                 }
             }
             PairCheck::Overlapping => {
-                violate(out, format!("particles {i} and {j} (or images) overlap"))
+                out.violate(format!("particles {i} and {j} (or images) overlap"))
             }
-            PairCheck::Undecided => violate(
-                out,
-                format!("particles {i} and {j}: separation could not be certified"),
-            ),
+            PairCheck::Undecided => out.violate(format!(
+                "particles {i} and {j}: separation could not be certified"
+            )),
         };
     // Lattice shifts t with |d + t| < reach, d a minimum-image separation.
     let shifts = |d: &Vector3<f64>, reach: f64| -> Vec<Vector3<f64>> {

@@ -4,8 +4,8 @@
 //! orientation tensor, and the independent verification.
 
 use super::{
-    finish, kernel_config, resumed_kernel, run_stages, stats_of_stages, Checkpointer, Job, Placed,
-    RunError, RunOutcome, SceneContainer, StagesFrom,
+    finish, kernel_config, resumed_kernel, run_stages, sphere_fraction, stats_of_stages, Job,
+    Placed, RunError, RunOutcome, SceneContainer, StagesFrom,
 };
 use crate::boundary::{Boundary, PeriodicBox, WalledBox};
 use crate::io::packing::ParticleRecord;
@@ -107,11 +107,7 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
     // Drawn first from the seed, so a resumed run draws the same sizes again.
     let true_diameters = scene.true_diameters(&mut rng);
     // Ellipsoids are volume-equivalent to spheres of the true diameters.
-    let full_size_fraction = true_diameters
-        .iter()
-        .map(|d| std::f64::consts::PI / 6.0 * d * d * d)
-        .sum::<f64>()
-        / boundary.volume();
+    let full_size_fraction = sphere_fraction(&true_diameters, boundary.volume());
     let original = boundary.clone();
     let (mut kernel, from, seeding_seconds): (Edmd<Ellipsoid, B, Q>, _, _) = match job.resume {
         None => {
@@ -124,19 +120,14 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
             (kernel, from, 0.0)
         }
     };
-    let mut checkpointer = Checkpointer::of(job);
     let done = run_stages(
         scene,
+        job,
         &mut kernel,
         full_size_fraction,
         from,
         on_stage,
         on_progress,
-        &mut |k, kernel, progress, reports| {
-            if let Some(c) = checkpointer.as_mut() {
-                c.at_barrier(k, progress, reports, kernel);
-            }
-        },
     )?;
     // Back to the order of the seeding, which the kernel permutes for cache locality.
     let mut order: Vec<u32> = vec![0; kernel.particles().len()];
