@@ -261,18 +261,37 @@ impl CellGrid {
         };
         let (rx, ry, rz) = (range(0), range(1), range(2));
         for z in rz.0..=rz.1 {
-            let z = z.rem_euclid(rz.2) as u32;
+            let z = wrap_cell(z, rz.2);
             for y in ry.0..=ry.1 {
-                let y = y.rem_euclid(ry.2) as u32;
+                let y = wrap_cell(y, ry.2);
                 let row = lv.first + lv.dims[0] * (y + lv.dims[1] * z);
                 for x in rx.0..=rx.1 {
-                    for i in self.members(row + x.rem_euclid(rx.2) as u32) {
+                    for i in self.members(row + wrap_cell(x, rx.2)) {
                         f(i);
                     }
                 }
             }
         }
     }
+}
+
+/// Cell coordinate `c` wrapped into `[0, n)`. The ranges of [`CellGrid::for_each_within`]
+/// around points inside the box lie within one period of it, where one correction suffices;
+/// `rem_euclid`, a 64-bit division per visited cell, is left for points further out.
+#[inline]
+fn wrap_cell(c: i64, n: i64) -> u32 {
+    let once = if c < 0 {
+        c + n
+    } else if c >= n {
+        c - n
+    } else {
+        c
+    };
+    (if (0..n).contains(&once) {
+        once
+    } else {
+        c.rem_euclid(n)
+    }) as u32
 }
 
 /// `⌊x⌋` as an integer (saturating; NaN gives 0). Written out because `f64::floor` is a libm
@@ -332,6 +351,15 @@ impl Iterator for Members<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn wrapped_cells_match_the_euclidean_remainder() {
+        for n in [1, 2, 3, 7] {
+            for c in -5 * n..5 * n {
+                assert_eq!(i64::from(wrap_cell(c, n)), c.rem_euclid(n), "c {c}, n {n}");
+            }
+        }
+    }
 
     #[test]
     fn integer_floor_matches_f64_floor() {
