@@ -16,7 +16,7 @@
 //! nothing) and owns them when it is read back. The encoding is the caller's choice (serde);
 //! `crate::io::checkpoint` writes the file.
 
-use super::{Edmd, EventCounts, KernelConfig, LocalList, Particle};
+use super::{Edmd, EventCounts, KernelConfig, LocalLists, Particle};
 use crate::boundary::Boundary;
 use crate::queue::EventQueue;
 use crate::shape::{Collidable, Vec3};
@@ -140,7 +140,7 @@ where
         Ok(Self {
             particles: snapshot.particles.into_owned(),
             counts: snapshot.counts.into_owned(),
-            local: vec![LocalList::default(); n],
+            local: LocalLists::new(n),
             list_centre: snapshot.list_centre.into_owned(),
             list_radius: snapshot.list_radius.into_owned(),
             neighbours: snapshot.neighbours.into_owned(),

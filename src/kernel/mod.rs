@@ -59,7 +59,7 @@ mod local;
 mod stage;
 
 pub use checkpoint::{KernelSnapshot, SnapshotError};
-use local::{EventKind, LocalEvent, LocalList};
+use local::{EventKind, LocalEvent, LocalLists};
 pub use stage::{Limits, Progress, Stage, StageProgress, StageReport, StopReason, Until};
 
 use crate::boundary::{Boundary, WallId};
@@ -208,7 +208,7 @@ enum Partners {
 pub struct Edmd<S: Collidable, B: Boundary, Q: EventQueue> {
     particles: Vec<Particle<S>>,
     counts: Vec<u32>,
-    local: Vec<LocalList>,
+    local: LocalLists,
     /// Centres of the neighbour-list spheres (wrapped into the box).
     list_centre: Vec<Vec3>,
     /// Radii of the neighbour-list spheres.
@@ -329,7 +329,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let skin = config.neighbour_skin;
         let mut kernel = Self {
             counts: vec![0; n],
-            local: vec![LocalList::default(); n],
+            local: LocalLists::new(n),
             list_centre: particles.iter().map(|p| p.pos).collect(),
             list_radius: vec![0.0; n],
             neighbours: vec![NeighbourList::new(); n],
@@ -585,7 +585,9 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         permute_in_place(&mut self.list_radius, &order, &mut visited);
         permute_in_place(&mut self.ids, &order, &mut visited);
         permute_in_place(&mut self.particles, &order, &mut visited);
-        permute_in_place(&mut self.local, &order, &mut visited);
+        let (events, truncated) = self.local.arrays_mut();
+        permute_in_place(events, &order, &mut visited);
+        permute_in_place(truncated, &order, &mut visited);
         let mut neighbours = std::mem::take(&mut self.neighbours);
         permute_in_place(&mut neighbours, &order, &mut visited);
         for list in &mut neighbours {
@@ -711,9 +713,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             self.rebuild_grid(self.grid.min_width());
         }
         self.queue.reset(0.0, interval, n);
-        for list in &mut self.local {
-            list.clear();
-        }
+        self.local.clear_all();
         for i in 0..n {
             self.predict_pairs(i, Partners::Above);
             self.predict_own(i);
@@ -741,7 +741,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             Partners::AllBut(k) => (k, 0),
             Partners::Above => (i, i + 1),
         };
-        let mut list = self.local[i];
+        let mut list = self.local.get(i);
         for j in self.neighbours[i].iter().map(|&j| j as usize) {
             if j == except || j < first {
                 continue;
@@ -763,7 +763,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 ));
             }
         }
-        self.local[i] = list;
+        self.local.set(i, list);
     }
 
     /// Predicts the wall contact and the neighbour-list update of particle `i`.
@@ -784,7 +784,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 self.boundary.predict_wall(&pos, &p.vel, r, g, max_tau)
             };
             if let Some((tau, wall)) = contact {
-                self.local[i].push(LocalEvent::new(t + tau, EventKind::Wall(wall)));
+                self.local
+                    .push(i, LocalEvent::new(t + tau, EventKind::Wall(wall)));
             }
         }
         let mut q = pos - self.list_centre[i];
@@ -793,7 +794,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let g = p.shape.bounding_growth_rate();
         let exit = exit_ball_time(q.norm_squared(), q.dot(&p.vel), p.vel.norm_squared(), s, g);
         if let Some(tau) = exit.filter(|&tau| tau <= max_tau) {
-            self.local[i].push(LocalEvent::new(t + tau, EventKind::NeighbourList));
+            self.local
+                .push(i, LocalEvent::new(t + tau, EventKind::NeighbourList));
         }
     }
 
@@ -801,13 +803,13 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// ran empty after dropping predictions is predicted afresh first.
     #[inline]
     fn reschedule(&mut self, i: usize) {
-        if self.local[i].is_empty() && self.local[i].truncated() {
-            self.local[i].clear();
+        if self.local.exhausted(i) {
+            self.local.clear(i);
             self.predict_pairs(i, Partners::All);
             self.predict_own(i);
             self.counters.repredictions += 1;
         }
-        match self.local[i].earliest() {
+        match self.local.earliest(i) {
             Some((_, e)) => self.queue.schedule(i, e.time),
             None => self.queue.cancel(i),
         }
@@ -832,8 +834,9 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             if t > self.barrier_time {
                 return true;
             }
-            let (idx, event) = self.local[i]
-                .earliest()
+            let (idx, event) = self
+                .local
+                .earliest(i)
                 .expect("a queued particle has events");
             let late = t < self.time;
             self.time = self.time.max(t);
@@ -844,7 +847,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 } => {
                     let j = partner as usize;
                     if self.counts[j] != partner_count {
-                        self.local[i].remove(idx);
+                        self.local.remove(i, idx);
                         self.reschedule(i);
                         self.counters.stale += 1;
                         continue;
@@ -890,8 +893,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.particles[j].spin = spin_j;
         self.counts[i] = self.counts[i].wrapping_add(1);
         self.counts[j] = self.counts[j].wrapping_add(1);
-        self.local[i].clear();
-        self.local[j].clear();
+        self.local.clear(i);
+        self.local.clear(j);
         self.predict_pairs(i, Partners::All);
         self.predict_own(i);
         self.predict_pairs(j, Partners::AllBut(i));
@@ -917,7 +920,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.particles[i].vel += dv;
         self.particles[i].spin = spin;
         self.counts[i] = self.counts[i].wrapping_add(1);
-        self.local[i].clear();
+        self.local.clear(i);
         self.predict_pairs(i, Partners::All);
         self.predict_own(i);
         self.reschedule(i);
@@ -928,7 +931,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.update_neighbour_list(i);
         // The trajectory is unchanged, but the new neighbours need predictions; the wall
         // event is recomputed with them.
-        self.local[i].clear();
+        self.local.clear(i);
         self.predict_pairs(i, Partners::All);
         self.predict_own(i);
         self.reschedule(i);
