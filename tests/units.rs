@@ -256,11 +256,7 @@ until = { reduced_pressure = 1e12 }
 
 /// A walled concrete scene: a sieve table (mm), grown to full size, then a 0.53 mm gap
 /// between grains and 0.14 mm to the walls (the walls step back), the box corner at 10⁶ mm.
-#[test]
-fn a_walled_concrete_gap_scene_is_the_same_in_every_decimal_unit() {
-    assert_scale_invariant(
-        "concrete-gap",
-        r#"
+const CONCRETE: &str = r#"
 seed = 5
 mass = "volume"
 [container]
@@ -281,8 +277,42 @@ growth = "absolute"
 rate = L(0.021)
 until = { gap = L(0.53) }
 wall_gap = L(0.14)
-"#,
+"#;
+
+#[test]
+fn a_walled_concrete_gap_scene_is_the_same_in_every_decimal_unit() {
+    assert_scale_invariant("concrete-gap", CONCRETE);
+}
+
+/// The concrete scene in metres (ℓ = 10⁻³ m) resumed from a checkpoint in its gap stage
+/// writes the packing of the uninterrupted run, bit for bit.
+#[test]
+fn a_scaled_scene_resumes_to_the_same_packing() {
+    use densepack::io::checkpoint::CheckpointFile;
+    use densepack::io::scene::Scene;
+    use densepack::run::{resume_run, run_scene, run_scene_checkpointed, CheckpointPlan};
+    let dir = temp_dir("resume");
+    let text = scene_at(CONCRETE, -3);
+    let scene = Scene::from_toml(&text).unwrap();
+    let straight = run_scene(&scene, &mut |_, _| {}).unwrap().packing;
+    let plan = CheckpointPlan {
+        path: dir.join("scaled.ckpt"),
+        every: std::time::Duration::ZERO,
+    };
+    run_scene_checkpointed(&text, &scene, &plan, &mut |_, _| {}, &mut |_, _| {}).unwrap();
+    let file = CheckpointFile::read(&plan.path).unwrap();
+    assert_eq!(
+        file.header.stage, 1,
+        "the last checkpoint is in the gap stage"
     );
+    let resumed = resume_run(&file, None, &mut |_, _| {}, &mut |_, _| {})
+        .unwrap()
+        .packing;
+    assert_eq!(resumed.particles, straight.particles);
+    assert_eq!(resumed.min_gap.to_bits(), straight.min_gap.to_bits());
+    assert_eq!(resumed.container, straight.container);
+    assert_eq!(resumed.stats.events, straight.stats.events);
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Prolate ellipsoids (volume-equivalent diameter 0.45, so ℓ = 0.1 at scale 1) grown from a
