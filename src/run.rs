@@ -4,8 +4,9 @@
 //! monomorphised for them: a fully periodic box gets [`PeriodicBox`] (no wall code at all).
 //! Ellipsoid scenes go through [`ellipsoid`] with the same stage loop.
 //!
-//! The kernel runs relative to the container's origin ([`container_origin`]) and the packing
-//! is translated back when it is written. Sphere and ellipsoid runs can write checkpoints at
+//! The kernel runs relative to the container's origin ([`container_origin`]) and in the
+//! scene's reduced lengths ([`Units`]: every length divided by `ℓ = 10^E`, exactly under
+//! decimal changes of unit); the packing is scaled and translated back when it is written. Sphere and ellipsoid runs can write checkpoints at
 //! time barriers and be resumed from them ([`run_scene_checkpointed`], [`resume_run`]).
 
 pub mod ellipsoid;
@@ -16,6 +17,7 @@ use crate::io::packing::{
     ContainerRecord, Packing, PackingStats, ParticleRecord, Provenance, Timings,
 };
 use crate::io::scene::{ContainerSpec, Method, Scene, StageSpec};
+use crate::io::units::Units;
 use crate::kernel::{Edmd, KernelConfig, Progress, StageProgress, StageReport, StopReason};
 use crate::protocol::rsa::{rsa_spheres, RsaFailure};
 use crate::queue::{CalendarQueue, EventQueue, HeapQueue, QueueKind};
@@ -83,6 +85,9 @@ pub struct CheckpointPlan {
 
 /// How a run starts and what it writes on the way.
 struct Job<'a> {
+    /// The scene as written (validated): its origin, units and provenance. The stages run
+    /// on its reduced copy ([`Units::reduced`]).
+    scene: &'a Scene,
     /// The scene's TOML text, stored in checkpoints.
     scene_toml: &'a str,
     /// A fresh run seeds; a resumed one rebuilds the kernel from the checkpoint.
@@ -101,11 +106,12 @@ pub fn run_scene_checkpointed(
     on_progress: &mut dyn FnMut(usize, &Progress),
 ) -> Result<RunOutcome, RunError> {
     let job = Job {
+        scene,
         scene_toml,
         resume: None,
         checkpoints: Some(plan),
     };
-    run_job(scene, &job, on_stage, on_progress)
+    run_job(&job, on_stage, on_progress)
 }
 
 /// Continues the run that wrote `checkpoint` to the packing the uninterrupted run gives
@@ -130,11 +136,12 @@ pub fn resume_run(
             .into());
     }
     let job = Job {
+        scene: &scene,
         scene_toml: &header.scene_toml,
         resume: Some(checkpoint),
         checkpoints: plan,
     };
-    run_job(&scene, &job, on_stage, on_progress)
+    run_job(&job, on_stage, on_progress)
 }
 
 /// Writes a checkpoint at a barrier once `plan.every` has passed since the last one.
@@ -195,11 +202,12 @@ pub fn run_scene_observed(
     on_progress: &mut dyn FnMut(usize, &Progress),
 ) -> Result<RunOutcome, RunError> {
     let job = Job {
+        scene,
         scene_toml: "",
         resume: None,
         checkpoints: None,
     };
-    run_job(scene, &job, on_stage, on_progress)
+    run_job(&job, on_stage, on_progress)
 }
 
 /// The point the kernel's coordinates are relative to: the box's lower corner or the
@@ -215,12 +223,15 @@ fn container_origin(scene: &Scene) -> [f64; 3] {
     }
 }
 
+/// Runs `job.scene` in its reduced units ([`Units`]): from here on every `scene` is the
+/// reduced copy, and [`finish`] writes the packing in the units of `job.scene`.
 fn run_job(
-    scene: &Scene,
     job: &Job,
     on_stage: &mut dyn FnMut(usize, &StageReport),
     on_progress: &mut dyn FnMut(usize, &Progress),
 ) -> Result<RunOutcome, RunError> {
+    let reduced = Units::of(job.scene).reduced(job.scene);
+    let scene = &reduced;
     if scene.particles.ellipsoid.is_some() {
         return ellipsoid::run_ellipsoid_scene(scene, job, on_stage, on_progress);
     }
@@ -372,7 +383,7 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
                 };
                 let container = boundary.record();
                 return finish(
-                    scene,
+                    job.scene,
                     container,
                     &boundary,
                     placed,
@@ -434,7 +445,7 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
             .insert("gap_history".into(), serde_json::json!(done.gap_history));
     }
     finish(
-        scene,
+        job.scene,
         original.record(),
         &original,
         placed,
@@ -590,13 +601,15 @@ where
         }
         let stage = spec.to_stage(full_size_fraction);
         let progress = progress.unwrap_or_else(|| kernel.start_stage(&stage));
-        // Every radius gains `rate` per unit time in a gap stage (absolute growth).
+        // Every radius gains `rate` per unit time in a gap stage (absolute growth); the gap
+        // is reported in the units of the scene as written.
         let gap_rate = spec.rate.filter(|_| spec.opens_gap());
+        let units = Units::of(job.scene);
         let mut stride = 1usize;
         let mut barrier = 0usize;
         let report = kernel.continue_stage(&stage, progress, &mut |kernel, p| {
             let mut observed = p.observed(kernel);
-            observed.gap = gap_rate.map(|rate| 2.0 * rate * observed.stage_time);
+            observed.gap = gap_rate.map(|rate| units.to_scene(2.0 * rate * observed.stage_time));
             on_progress(k, &observed);
             if let Some(gap) = observed.gap {
                 if barrier % stride == 0 {
@@ -741,8 +754,10 @@ fn stats_of_stages(reports: &[StageReport], n: usize) -> PackingStats {
     }
 }
 
-/// Builds the packing (translated from the kernel's coordinates to the scene's, see
-/// [`container_origin`]), checks it independently and returns it.
+/// Builds the packing in the units and frame of `scene`, the scene as written (the run's
+/// reduced lengths times `ℓ`, see [`Units`], translated from the kernel's coordinates to the
+/// scene's, see [`container_origin`]), checks it independently and returns it. The packing
+/// fraction is computed in reduced units: decimal rewrites of a scene give the same bits.
 fn finish<B: Boundary>(
     scene: &Scene,
     container: ContainerRecord,
@@ -753,20 +768,22 @@ fn finish<B: Boundary>(
     seeding_seconds: f64,
 ) -> Result<RunOutcome, RunError> {
     let origin = container_origin(scene);
+    let units = Units::of(scene);
+    let to_scene = |y| units.to_scene(y);
     let particles = placed
         .particles
         .into_iter()
-        .map(|p| p.translated(origin))
+        .map(|p| p.in_frame(origin, to_scene))
         .collect();
     let mut packing = Packing {
-        min_gap: placed.min_gap,
-        wall_gap: placed.wall_gap,
+        min_gap: to_scene(placed.min_gap),
+        wall_gap: placed.wall_gap.map(to_scene),
         seed: scene.seed,
         stats: PackingStats {
             packing_fraction: placed.volume / boundary.volume(),
             ..stats
         },
-        ..Packing::new(container.translated(origin), particles)
+        ..Packing::new(container.in_frame(origin, to_scene), particles)
     };
     let verify_started = std::time::Instant::now();
     let verification = verify(&packing);

@@ -331,9 +331,11 @@ periodic = [true, false, true]
 components = [{ count = 8, diameter = 4.0 }, { count = 40, diameter = 2.0 },
               { count = 300, diameter = 1.0 }, { count = 2000, diameter = 0.5 }]
 packing_fraction = 0.3
+# Time is in units of ℓ·√(m/kT) with ℓ = 0.1 here (the power of ten below the smallest
+# diameter, `io::units`): 0.01 per unit is the growth of 0.1 per unit of 1·√(m/kT).
 [[stage]]
 growth = "relative"
-rate = 0.1
+rate = 0.01
 until = { reduced_pressure = 1e8 }
 "#,
     );

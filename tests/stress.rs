@@ -490,22 +490,26 @@ fn scaled_run(s: f64, n: usize) -> (Row, Kernel<Sphere, PeriodicBox>) {
     run_case(&format!("scale {s:e}"), kernel, &[grow_to_jamming(0.05)])
 }
 
-/// Scale covariance. EDMD with lengths ×s, kT ×s² (velocities ×s, times unchanged) and the
-/// relative growth rate unchanged computes every time and every ratio from quantities that
-/// all scale by the same power of s. Multiplying by a power of two is exact in floating
-/// point, so with s = 2^±10 ≈ 10^∓3 the run is *identical*: the same events in the same
-/// order, the same packing-fraction trajectory bit for bit, centres exactly s times the
-/// reference. With s = 10^±3 the inputs round differently at the last bit, and hard-sphere
-/// dynamics amplifies such differences (positive Lyapunov exponent): the trajectories agree
-/// to 1e-9 only until the event sequences part; after that only the statistics agree.
+/// Scale covariance, at two levels.
 ///
-/// Reduced units in the run layer (every length divided by a reference length such as the
-/// largest diameter before the kernel runs) would not make them agree: the quotients of the
-/// scaled inputs are not those of the unscaled ones — for this test's box and diameter,
-/// fl(9e-3 / fl(d·1e-3)) = 9.556138980221725 but fl(9 / d) = 9.556138980221723 — and one unit
-/// in the last place parts the trajectories as surely as any other. (And a scene scaled in
-/// length alone, with the same `temperature`, is another protocol: its time unit is fixed by
-/// kT and the mass, so collisions come 10³ times as often per unit of the growth rate.)
+/// **Kernel.** EDMD with lengths ×s, kT ×s² (velocities ×s, times unchanged) and the relative
+/// growth rate unchanged computes every time and every ratio from quantities that all scale
+/// by the same power of s. Multiplying by a power of two is exact in floating point, so with
+/// s = 2^±10 ≈ 10^∓3 the kernel run is *identical*: the same events in the same order, the
+/// same packing-fraction trajectory bit for bit, centres exactly s times the reference. Given
+/// inputs multiplied by s = 10^±3 in floating point, the kernel sees inputs that round
+/// differently at the last bit, and hard-sphere dynamics amplifies such differences (positive
+/// Lyapunov exponent): the trajectories agree to 1e-9 only until the event sequences part;
+/// after that only the statistics agree. (Dividing such inputs by a reference length does
+/// not help: fl(9e-3 / fl(d·1e-3)) ≠ fl(9 / d) in general.)
+///
+/// **Scenes.** Decimal changes of unit are therefore made exact one level up, where the
+/// lengths are still decimal literals: `run` reduces every length of a scene by
+/// ℓ = 10^E, shifting each literal's decimal exponent (`densepack::io::units`), and keeps
+/// `temperature` (time is in units of ℓ·√(m/kT)). A jamming scene written with every length
+/// literal ×10⁻³ and ×10³ (the same `temperature`) gives the same events, the same packing
+/// fraction at every barrier bit for bit, and centres ×10^±3 to one rounding
+/// (`tests/units.rs` checks more scenes through the binary).
 #[test]
 fn scale_covariance() {
     header();
@@ -547,6 +551,64 @@ fn scale_covariance() {
             row.phi,
             reference.phi
         );
+    }
+    // The same jam as a scene, every length literal written ×10^k: identical runs.
+    let edge = 9.0 * (n as f64 / 500.0).cbrt();
+    let scene_at = |exponent: i32| {
+        let text = format!(
+            "seed = 10\n[container]\ntype = \"box\"\nsize = [{edge:.2}e{exponent}, \
+             {edge:.2}e{exponent}, {edge:.2}e{exponent}]\nperiodic = [true, true, true]\n\
+             [particles]\ncount = {n}\ndiameter = 1.05e{exponent}\npacking_fraction = 0.3\n\
+             [[stage]]\ngrowth = \"relative\"\nrate = 0.05\n\
+             until = {{ reduced_pressure = 1e12 }}\n"
+        );
+        let scene = densepack::io::scene::Scene::from_toml(&text).unwrap();
+        let mut trajectory = Vec::new();
+        let started = std::time::Instant::now();
+        let outcome = densepack::run::run_scene_observed(&scene, &mut |_, _| {}, &mut |_, p| {
+            trajectory.push(p.packing_fraction)
+        })
+        .unwrap();
+        eprintln!(
+            "  scene ×1e{exponent}: {} events, φ = {:.6}, {:.1} s",
+            outcome.packing.stats.events,
+            outcome.packing.stats.packing_fraction,
+            started.elapsed().as_secs_f64()
+        );
+        (outcome.packing, trajectory)
+    };
+    let (reference, ref_trajectory) = scene_at(0);
+    for exponent in [-3, 3] {
+        let (packing, trajectory) = scene_at(exponent);
+        assert_eq!(packing.stats.events, reference.stats.events);
+        assert_eq!(
+            packing.stats.packing_fraction.to_bits(),
+            reference.stats.packing_fraction.to_bits()
+        );
+        assert_eq!(trajectory.len(), ref_trajectory.len());
+        for (a, b) in trajectory.iter().zip(&ref_trajectory) {
+            assert_eq!(
+                a.to_bits(),
+                b.to_bits(),
+                "scene ×1e{exponent}: φ {a} vs {b}"
+            );
+        }
+        let s = 10f64.powi(exponent);
+        for (p, q) in packing.particles.iter().zip(&reference.particles) {
+            let (
+                ParticleRecord::Sphere { center: a, .. },
+                ParticleRecord::Sphere { center: b, .. },
+            ) = (p, q)
+            else {
+                panic!("spheres expected");
+            };
+            for k in 0..3 {
+                assert!(
+                    (a[k] - b[k] * s).abs() <= 1e-12 * edge * s,
+                    "{a:?} vs {b:?}·{s}"
+                );
+            }
+        }
     }
 }
 

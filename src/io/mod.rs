@@ -4,3 +4,4 @@ pub mod checkpoint;
 pub mod export;
 pub mod packing;
 pub mod scene;
+pub mod units;

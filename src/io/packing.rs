@@ -40,19 +40,19 @@ pub enum ContainerRecord {
     },
 }
 
-/// `p + offset`.
-fn shifted(p: [f64; 3], offset: [f64; 3]) -> [f64; 3] {
-    std::array::from_fn(|k| p[k] + offset[k])
+/// `origin + scale(p)`, coordinate by coordinate.
+fn placed(p: [f64; 3], origin: [f64; 3], scale: &impl Fn(f64) -> f64) -> [f64; 3] {
+    std::array::from_fn(|k| origin[k] + scale(p[k]))
 }
 
 impl ContainerRecord {
-    /// The container moved by `offset`.
-    pub fn translated(self, offset: [f64; 3]) -> Self {
-        let add = |p| shifted(p, offset);
+    /// The container in another frame: every length `x` becomes `scale(x)` and every point
+    /// `p` becomes `origin + scale(p)` (`scale`: a change of unit, or the identity).
+    pub fn in_frame(self, origin: [f64; 3], scale: impl Fn(f64) -> f64) -> Self {
         match self {
             Self::Box { min, max, periodic } => Self::Box {
-                min: add(min),
-                max: add(max),
+                min: placed(min, origin, &scale),
+                max: placed(max, origin, &scale),
                 periodic,
             },
             Self::Cylinder {
@@ -60,9 +60,9 @@ impl ContainerRecord {
                 radius,
                 height,
             } => Self::Cylinder {
-                base_center: add(base_center),
-                radius,
-                height,
+                base_center: placed(base_center, origin, &scale),
+                radius: scale(radius),
+                height: scale(height),
             },
         }
     }
@@ -104,29 +104,30 @@ pub enum ParticleRecord {
 }
 
 impl ParticleRecord {
-    /// The particle moved by `offset`.
-    pub fn translated(self, offset: [f64; 3]) -> Self {
+    /// The particle in another frame (see [`ContainerRecord::in_frame`]); orientations are
+    /// unchanged.
+    pub fn in_frame(self, origin: [f64; 3], scale: impl Fn(f64) -> f64) -> Self {
         match self {
             Self::Sphere { center, radius } => Self::Sphere {
-                center: shifted(center, offset),
-                radius,
+                center: placed(center, origin, &scale),
+                radius: scale(radius),
             },
             Self::Cylinder {
                 center,
                 radius,
                 half_axis,
             } => Self::Cylinder {
-                center: shifted(center, offset),
-                radius,
-                half_axis,
+                center: placed(center, origin, &scale),
+                radius: scale(radius),
+                half_axis: half_axis.map(&scale),
             },
             Self::Ellipsoid {
                 center,
                 semi_axes,
                 orientation,
             } => Self::Ellipsoid {
-                center: shifted(center, offset),
-                semi_axes,
+                center: placed(center, origin, &scale),
+                semi_axes: semi_axes.map(&scale),
                 orientation,
             },
         }

@@ -2,7 +2,10 @@
 //!
 //! Lengths are in the scene's own unit (millimetres for concrete scenes; any unit for
 //! dimensionless studies): every length in a packing is in the same unit. Time is in units
-//! where `kT = temperature` and a particle of the mean initial volume has mass 1.
+//! of `ℓ·√(m/kT)`, where `kT = temperature`, a particle of the mean initial volume has mass 1
+//! and `ℓ` is the power of ten at or below the smallest diameter (1 for diameters in
+//! `[1, 10)`): the run works in lengths divided by `ℓ` ([`crate::io::units`]), so a scene
+//! rewritten in another decimal unit (every length literal ×10^k) runs identically.
 //!
 //! ```toml
 //! seed = 42

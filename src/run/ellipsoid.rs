@@ -174,7 +174,7 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
         wall_gap: None,
     };
     finish(
-        scene,
+        job.scene,
         original.record(),
         &original,
         placed,
