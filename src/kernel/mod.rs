@@ -804,15 +804,15 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// The sphere the walls see of `shape` at kernel time `t`: its radius and growth rate.
     /// The walls see the bounding sphere grow at [`Stage::wall_growth`] `f` times its rate
     /// `g` since the stage began: radius `r(t) − (1 − f)·g·τ` at stage time `τ`, rate `f·g`.
-    /// With `f = 1` both are the bounding sphere's, bit for bit.
+    /// With `f = 1` (every stage but gap stages) both are the bounding sphere's.
     #[inline]
     fn wall_sphere(&self, shape: &S, t: f64) -> (f64, f64) {
-        let g = shape.bounding_growth_rate();
+        let (r, g) = (shape.bounding_radius(t), shape.bounding_growth_rate());
+        if self.wall_growth == 1.0 {
+            return (r, g);
+        }
         let lag = (1.0 - self.wall_growth) * g;
-        (
-            shape.bounding_radius(t) - lag * (self.stage_clock + t),
-            g - lag,
-        )
+        (r - lag * (self.stage_clock + t), g - lag)
     }
 
     /// Puts particle `i`'s earliest local event into the queue (or removes it). A list that
