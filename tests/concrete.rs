@@ -272,16 +272,11 @@ wall_gap = 0.0
     assert!(packing.wall_gap.is_some_and(|w| w.abs() < 1e-9));
     assert_gap_and_containment(&packing);
     // Some grain sits closer to a wall than half the gap (else the option did nothing).
-    let closest = packing
-        .particles
-        .iter()
-        .map(|p| match p {
-            ParticleRecord::Sphere { center, radius } => (0..2)
-                .map(|k| center[k].min(40.0 - center[k]) - radius)
-                .fold(f64::INFINITY, f64::min),
-            other => panic!("a sphere packing was expected, got {other:?}"),
-        })
-        .fold(f64::INFINITY, f64::min);
+    let closest = closest_wall(&packing, |c| {
+        (0..2)
+            .map(|k| c[k].min(40.0 - c[k]))
+            .fold(f64::INFINITY, f64::min)
+    });
     assert!(closest < 0.5, "closest wall gap {closest}");
 }
 
@@ -296,15 +291,14 @@ fn walled_cube_max_gap(count: usize, lambda: f64) -> String {
     )
 }
 
-/// Smallest distance from a sphere's surface to a wall of the box `[0, edge]³`.
-fn closest_wall(packing: &Packing, edge: f64) -> f64 {
+/// Smallest distance from a sphere's surface to a wall, `wall_distance` giving the distance
+/// from a centre to the nearest wall.
+fn closest_wall(packing: &Packing, wall_distance: impl Fn(&[f64; 3]) -> f64) -> f64 {
     packing
         .particles
         .iter()
         .map(|p| match p {
-            ParticleRecord::Sphere { center, radius } => (0..3)
-                .map(|k| center[k].min(edge - center[k]) - radius)
-                .fold(f64::INFINITY, f64::min),
+            ParticleRecord::Sphere { center, radius } => wall_distance(center) - radius,
             other => panic!("a sphere packing was expected, got {other:?}"),
         })
         .fold(f64::INFINITY, f64::min)
@@ -335,7 +329,11 @@ fn gap_maximisation_with_a_wall_gap_fraction_meets_the_exact_cubes() {
         assert_eq!(packing.wall_gap, expected_wall_gap, "{case}");
         assert_gap_and_containment(&packing);
         // The walls hold the grains at exactly the requested share of the gap.
-        let wall = closest_wall(&packing, 4.0);
+        let wall = closest_wall(&packing, |c| {
+            (0..3)
+                .map(|k| c[k].min(4.0 - c[k]))
+                .fold(f64::INFINITY, f64::min)
+        });
         assert!(
             (wall - lambda * gap).abs() < 1e-9,
             "{case}: wall gap {wall}"
@@ -411,16 +409,8 @@ wall_gap_fraction = 0.2
     );
     assert_gap_and_containment(&packing);
     // Some grain sits closer to the mantle or a cap than Δd/2 (else the option did nothing).
-    let closest = packing
-        .particles
-        .iter()
-        .map(|p| match p {
-            ParticleRecord::Sphere { center, radius } => {
-                let rho = center[0].hypot(center[1]);
-                (25.0 - rho).min(center[2]).min(50.0 - center[2]) - radius
-            }
-            other => panic!("a sphere packing was expected, got {other:?}"),
-        })
-        .fold(f64::INFINITY, f64::min);
+    let closest = closest_wall(&packing, |c| {
+        (25.0 - c[0].hypot(c[1])).min(c[2]).min(50.0 - c[2])
+    });
     assert!(closest < 0.5, "closest wall gap {closest}");
 }
