@@ -16,7 +16,7 @@ use crate::io::checkpoint::{write_checkpoint, CheckpointError, CheckpointFile, C
 use crate::io::packing::{
     ContainerRecord, Packing, PackingStats, ParticleRecord, Provenance, Timings,
 };
-use crate::io::scene::{ContainerSpec, Method, Scene, StageSpec};
+use crate::io::scene::{ContainerSpec, Method, Scene};
 use crate::io::units::Units;
 use crate::kernel::{Edmd, KernelConfig, Progress, StageProgress, StageReport, StopReason};
 use crate::protocol::rsa::{rsa_spheres, RsaFailure};
@@ -281,8 +281,6 @@ fn dispatch_queue<B: Boundary + SceneContainer>(
 pub trait SceneContainer: Sized {
     /// The packing-file description.
     fn record(&self) -> ContainerRecord;
-    /// The container with every wall moved outward by `by` (periodic axes unchanged).
-    fn expanded(&self, by: f64) -> Self;
 }
 
 impl SceneContainer for PeriodicBox {
@@ -292,9 +290,6 @@ impl SceneContainer for PeriodicBox {
             max: (self.min + self.len).into(),
             periodic: [true; 3],
         }
-    }
-    fn expanded(&self, _: f64) -> Self {
-        self.clone()
     }
 }
 
@@ -306,14 +301,6 @@ impl SceneContainer for WalledBox {
             periodic: self.periodic,
         }
     }
-    fn expanded(&self, by: f64) -> Self {
-        let shift = Vec3::from_fn(|k, _| if self.periodic[k] { 0.0 } else { by });
-        Self {
-            min: self.min - shift,
-            max: self.max + shift,
-            periodic: self.periodic,
-        }
-    }
 }
 
 impl SceneContainer for CylinderContainer {
@@ -322,13 +309,6 @@ impl SceneContainer for CylinderContainer {
             base_center: self.base_center.into(),
             radius: self.radius,
             height: self.height,
-        }
-    }
-    fn expanded(&self, by: f64) -> Self {
-        Self {
-            base_center: self.base_center - Vec3::new(0.0, 0.0, by),
-            radius: self.radius + by,
-            height: self.height + 2.0 * by,
         }
     }
 }
@@ -419,12 +399,13 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
         .map(|p| p.shape.bounding_radius(0.0))
         .collect();
     drop(particles);
-    let (radii, min_gap, wall_gap) = match done.gap_walls_moved {
+    let (radii, min_gap, wall_gap) = match done.gap_wall_fraction {
         // The gap stage starts at the true sizes (validation requires it) and every radius
         // gains the same at the absolute rate; the guaranteed gap is twice the smallest gain
-        // (they differ only by rounding), and the gain less how far the walls stepped back to
-        // the walls. The true radii come from the seed, so a resumed run writes the same.
-        Some(walls_moved) => {
+        // (they differ only by rounding), and the walls saw the fraction 2λ of each gain
+        // (`Stage::wall_growth`). The true radii come from the seed, so a resumed run writes
+        // the same.
+        Some(fraction) => {
             let true_radii: Vec<f64> = true_diameters.iter().map(|d| 0.5 * d).collect();
             let gain = grown
                 .iter()
@@ -432,8 +413,9 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
                 .map(|(g, t)| g - t)
                 .fold(f64::INFINITY, f64::min)
                 .max(0.0);
-            let wall_gap = (walls_moved > 0.0).then(|| (gain - walls_moved).max(0.0));
-            (true_radii, 2.0 * gain, wall_gap)
+            let min_gap = 2.0 * gain;
+            let wall_gap = (fraction != 0.5).then_some(fraction * min_gap);
+            (true_radii, min_gap, wall_gap)
         }
         None => (grown, 0.0, None),
     };
@@ -456,8 +438,7 @@ fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
 }
 
 /// The kernel `file` stores, rebuilt in the scene's container `boundary` (relative to its
-/// origin; a gap stage in progress runs in its own container, walls moved out), and where
-/// its stages resume.
+/// origin), and where its stages resume.
 fn resumed_kernel<S, B, Q>(
     scene: &Scene,
     file: &CheckpointFile,
@@ -470,12 +451,6 @@ where
     Q: EventQueue,
 {
     let stage = file.header.stage;
-    let walls_moved = walls_moved_by(&scene.stages[stage]);
-    let boundary = if walls_moved > 0.0 {
-        boundary.expanded(walls_moved)
-    } else {
-        boundary
-    };
     let kernel = Edmd::from_snapshot(file.kernel()?, boundary, kernel_config(scene))
         .map_err(|e| file.error(e.to_string()))?;
     let from = StagesFrom {
@@ -518,10 +493,10 @@ impl StagesFrom {
     }
 }
 
-/// The stages of a run, and how far the walls stepped back for the gap stage if one ran.
+/// The stages of a run, and the wall gap fraction λ of the gap stage if one ran.
 struct StagesDone {
     reports: Vec<StageReport>,
-    gap_walls_moved: Option<f64>,
+    gap_wall_fraction: Option<f64>,
     /// The gap Δd over time in a gap stage (paper 001, Fig. 10), at most
     /// [`GAP_HISTORY_POINTS`] barriers, evenly thinned; from the resume on after a restart.
     gap_history: Vec<GapSample>,
@@ -544,15 +519,6 @@ struct GapSample {
 
 /// Most samples kept in a gap history.
 const GAP_HISTORY_POINTS: usize = 256;
-
-/// How far a gap stage moves the walls out: `Δd/2 − wall_gap` when it keeps less than half
-/// the gap to the walls, else 0.
-fn walls_moved_by(spec: &StageSpec) -> f64 {
-    match (spec.until.gap, spec.wall_gap) {
-        (Some(g), Some(wall_gap)) => (0.5 * g - wall_gap).max(0.0),
-        _ => 0.0,
-    }
-}
 
 /// Packing fraction of spheres of diameters `d` (or of particles volume-equivalent to them)
 /// in a container of volume `volume`.
@@ -586,18 +552,13 @@ where
         progress: mut resumed,
         mut reports,
     } = from;
-    let mut gap_walls_moved = None;
+    let mut gap_wall_fraction = None;
     let mut gap_history: Vec<GapSample> = Vec::new();
-    let original = kernel.boundary().clone();
     for (k, spec) in scene.stages.iter().enumerate().skip(first) {
-        // A resumed stage continues where its checkpoint was taken, in the kernel's container.
+        // A resumed stage continues where its checkpoint was taken.
         let progress = resumed.take();
         if spec.opens_gap() {
-            let walls_moved = walls_moved_by(spec);
-            if walls_moved > 0.0 && progress.is_none() {
-                kernel.replace_boundary(original.expanded(walls_moved));
-            }
-            gap_walls_moved = Some(walls_moved);
+            gap_wall_fraction = Some(spec.wall_gap_fraction());
         }
         let stage = spec.to_stage(full_size_fraction);
         let progress = progress.unwrap_or_else(|| kernel.start_stage(&stage));
@@ -661,7 +622,7 @@ where
     }
     Ok(StagesDone {
         reports,
-        gap_walls_moved,
+        gap_wall_fraction,
         gap_history,
     })
 }

@@ -480,6 +480,34 @@ fn cases() -> Vec<(&'static str, Vec<u8>, Vec<&'static str>)> {
             vec!["stage[0].until.gap", "growth = \"absolute\""],
         ),
         (
+            "wall gap as a length with max_gap",
+            Parts::stage(
+                "growth = \"absolute\"\nrate = 0.1\nuntil = { max_gap = true }\nwall_gap = 0.1",
+            ),
+            vec!["stage[0].wall_gap", "wall_gap_fraction", "[0, 0.5]"],
+        ),
+        (
+            "wall gap fraction above one half",
+            Parts::stage(
+                "growth = \"absolute\"\nrate = 0.1\nuntil = { max_gap = true }\nwall_gap_fraction = 0.6",
+            ),
+            vec!["stage[0].wall_gap_fraction", "[0, 0.5]"],
+        ),
+        (
+            "wall gap given twice",
+            Parts::stage(
+                "growth = \"absolute\"\nrate = 0.1\nuntil = { gap = 0.1 }\nwall_gap = 0.0\nwall_gap_fraction = 0.0",
+            ),
+            vec!["stage[0].wall_gap_fraction", "either"],
+        ),
+        (
+            "wall gap fraction outside a gap stage",
+            Parts::stage(
+                "growth = \"relative\"\nrate = 0.1\nuntil = { reduced_pressure = 1e12 }\nwall_gap_fraction = 0.5",
+            ),
+            vec!["stage[0].wall_gap_fraction", "gap stage"],
+        ),
+        (
             "error in the second stage",
             format!(
                 "{}[[stage]]\ngrowth = \"none\"\nuntil = {{ collisions_per_particle = -2.0 }}\n",

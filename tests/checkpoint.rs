@@ -296,7 +296,8 @@ fn damaged_checkpoints_are_refused_with_exit_code_2() {
 }
 
 /// A graded scene in a walled box (offset from the origin): growth to the true sizes, then a
-/// 1 mm gap stage whose walls step back (wall_gap 0.2 < Δd/2).
+/// 1 mm gap stage that keeps less than Δd/2 to the walls (wall_gap 0.2: the walls see the
+/// grains grow at 0.4 times the pair rate).
 const GAP_SCENE: &str = r#"seed = 11
 mass = "volume"
 [container]
@@ -355,8 +356,7 @@ fn a_gap_stage_resumes_to_the_same_gap_and_particles() {
         );
         assert_eq!(p.container, straight.container);
     }
-    // The gap asked for (rounding only), and the walls' share of it: Δd/2 less the 0.3 they
-    // stepped back.
+    // The gap asked for (rounding only), and the walls' share of it: 0.2 of the 1 mm.
     assert!(
         (straight.min_gap - 1.0).abs() < 1e-9,
         "{}",

@@ -272,15 +272,145 @@ wall_gap = 0.0
     assert!(packing.wall_gap.is_some_and(|w| w.abs() < 1e-9));
     assert_gap_and_containment(&packing);
     // Some grain sits closer to a wall than half the gap (else the option did nothing).
-    let closest = packing
+    let closest = closest_wall(&packing, |c| {
+        (0..2)
+            .map(|k| c[k].min(40.0 - c[k]))
+            .fold(f64::INFINITY, f64::min)
+    });
+    assert!(closest < 0.5, "closest wall gap {closest}");
+}
+
+/// A `max_gap` scene of `count` spheres of diameter 1 at their true size in a walled cube of
+/// edge 4, keeping the fraction `lambda` of the gap to the walls.
+fn walled_cube_max_gap(count: usize, lambda: f64) -> String {
+    format!(
+        "seed = 3\n[container]\ntype = \"box\"\nsize = [4.0, 4.0, 4.0]\n\
+         periodic = [false, false, false]\n[particles]\ncount = {count}\ndiameter = 1.0\n\
+         [[stage]]\ngrowth = \"absolute\"\nrate = 0.01\nuntil = {{ max_gap = true }}\n\
+         wall_gap_fraction = {lambda:?}\n"
+    )
+}
+
+/// Smallest distance from a sphere's surface to a wall, `wall_distance` giving the distance
+/// from a centre to the nearest wall.
+fn closest_wall(packing: &Packing, wall_distance: impl Fn(&[f64; 3]) -> f64) -> f64 {
+    packing
         .particles
         .iter()
         .map(|p| match p {
-            ParticleRecord::Sphere { center, radius } => (0..2)
-                .map(|k| center[k].min(40.0 - center[k]) - radius)
-                .fold(f64::INFINITY, f64::min),
+            ParticleRecord::Sphere { center, radius } => wall_distance(center) - radius,
             other => panic!("a sphere packing was expected, got {other:?}"),
         })
-        .fold(f64::INFINITY, f64::min);
+        .fold(f64::INFINITY, f64::min)
+}
+
+#[test]
+fn gap_maximisation_with_a_wall_gap_fraction_meets_the_exact_cubes() {
+    // Edge a = 4, diameter d = 1, wall gap λ·Δd. One sphere jams when its coat as the walls
+    // see it fills the cube: d/2 + λ·Δd = a/2, so Δd_max = (a − d)/(2λ) (a − d = 3 for the
+    // default λ = 1/2). Eight spheres jam on the simple cubic lattice: neighbours d + Δd
+    // apart and each λ·Δd from its three walls, 2·(d/2 + λ·Δd) + d + Δd = a, so
+    // Δd_max = (a − 2d)/(1 + 2λ).
+    let cases = [
+        (1, 0.5, 3.0),
+        (1, 0.25, 6.0),
+        (8, 0.5, 1.0),
+        (8, 0.25, 4.0 / 3.0),
+        (8, 0.0, 2.0),
+    ];
+    for (count, lambda, exact) in cases {
+        let packing = run_toml(&walled_cube_max_gap(count, lambda)).packing;
+        let gap = packing.min_gap;
+        let case = format!("{count} spheres, λ = {lambda}: Δd_max = {gap}, exact {exact}");
+        // Jammed at reduced pressure 1e12: contacts closed to ~1e-12 of a diameter.
+        assert!((gap - exact).abs() < 1e-9 * exact, "{case}");
+        assert_eq!(packing.stats.stop_reason, "jammed", "{case}");
+        let expected_wall_gap = (lambda != 0.5).then_some(lambda * gap);
+        assert_eq!(packing.wall_gap, expected_wall_gap, "{case}");
+        assert_gap_and_containment(&packing);
+        // The walls hold the grains at exactly the requested share of the gap.
+        let wall = closest_wall(&packing, |c| {
+            (0..3)
+                .map(|k| c[k].min(4.0 - c[k]))
+                .fold(f64::INFINITY, f64::min)
+        });
+        assert!(
+            (wall - lambda * gap).abs() < 1e-9,
+            "{case}: wall gap {wall}"
+        );
+    }
+}
+
+#[test]
+fn a_smaller_wall_gap_fraction_lets_the_gap_grow_larger() {
+    // B16 grains above 4 mm in a 50 mm walled cube (260 grains), Δd maximised keeping
+    // λ·Δd_max to the walls: the less the walls take, the larger the gap between grains.
+    let scene = |lambda: f64| {
+        format!(
+            "seed = 1\nmass = \"volume\"\n[container]\ntype = \"box\"\nsize = [50.0, 50.0, 50.0]\n\
+             periodic = [false, false, false]\n[particles]\n\
+             grading = {{ kind = \"din\", name = \"B16\" }}\nmixture_fraction = 0.7\nd_min = 4.0\n\
+             [[stage]]\ngrowth = \"relative\"\nrate = 0.05\nuntil = {{ full_size = true }}\n\
+             [[stage]]\ngrowth = \"absolute\"\nrate = 0.01\nuntil = {{ max_gap = true }}\n\
+             wall_gap_fraction = {lambda:?}\n"
+        )
+    };
+    let mut previous = 0.0;
+    for lambda in [0.5, 0.25, 0.0] {
+        let outcome = run_toml(&scene(lambda));
+        let packing = &outcome.packing;
+        let gap = packing.min_gap;
+        assert!(
+            gap > previous,
+            "λ = {lambda}: Δd_max = {gap} after {previous}"
+        );
+        previous = gap;
+        assert_gap_and_containment(packing);
+        let wall = outcome.verification.min_wall_gap.expect("walled box");
+        assert!(
+            wall >= lambda * gap - 1e-9,
+            "λ = {lambda}: wall gap {wall} < λ·Δd_max = {}",
+            lambda * gap
+        );
+        if lambda == 0.0 {
+            // Grains may touch the walls: some grain rests on one.
+            assert!(wall < 1e-6, "λ = 0: closest wall gap {wall}");
+        }
+    }
+}
+
+#[test]
+fn a_gap_stage_keeps_a_fraction_of_the_gap_to_a_cylinder_wall() {
+    let packing = run_toml(
+        r#"
+seed = 4
+mass = "volume"
+[container]
+type = "cylinder"
+radius = 25.0
+height = 50.0
+[particles]
+grading = { kind = "din", name = "A16" }
+mixture_fraction = 0.4
+d_min = 4.0
+[[stage]]
+growth = "absolute"
+rate = 0.02
+until = { gap = 1.0 }
+wall_gap_fraction = 0.2
+"#,
+    )
+    .packing;
+    assert!((packing.min_gap - 1.0).abs() < 1e-9, "{}", packing.min_gap);
+    assert!(
+        packing.wall_gap.is_some_and(|w| (w - 0.2).abs() < 1e-9),
+        "{:?}",
+        packing.wall_gap
+    );
+    assert_gap_and_containment(&packing);
+    // Some grain sits closer to the mantle or a cap than Δd/2 (else the option did nothing).
+    let closest = closest_wall(&packing, |c| {
+        (25.0 - c[0].hypot(c[1])).min(c[2]).min(50.0 - c[2])
+    });
     assert!(closest < 0.5, "closest wall gap {closest}");
 }

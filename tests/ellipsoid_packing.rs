@@ -94,6 +94,7 @@ fn collisions_conserve_momentum_and_energy() {
         },
         limits: Limits::default(),
         thermostat: true,
+        wall_growth: 1.0,
     };
     assert_eq!(
         kernel.run_stage(&grow).stop_reason,
@@ -110,6 +111,7 @@ fn collisions_conserve_momentum_and_energy() {
         },
         limits: Limits::default(),
         thermostat: false,
+        wall_growth: 1.0,
     };
     let report = kernel.run_stage(&equilibrate);
     assert_eq!(report.stop_reason, StopReason::CollisionsReached);

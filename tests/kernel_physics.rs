@@ -107,6 +107,7 @@ fn equilibrium_run_conserves_momentum_and_energy_over_a_million_collisions() {
         },
         limits: Limits::default(),
         thermostat: true,
+        wall_growth: 1.0,
     };
     assert_eq!(
         kernel.run_stage(&grow).stop_reason,
@@ -123,6 +124,7 @@ fn equilibrium_run_conserves_momentum_and_energy_over_a_million_collisions() {
         },
         limits: Limits::default(),
         thermostat: false,
+        wall_growth: 1.0,
     };
     let report = kernel.run_stage(&equilibrium);
     assert_eq!(report.stop_reason, StopReason::CollisionsReached);

@@ -298,6 +298,7 @@ fn grow_to_jamming(rate: f64) -> Stage {
             ..Limits::default()
         },
         thermostat: true,
+        wall_growth: 1.0,
     }
 }
 
@@ -310,6 +311,7 @@ fn equilibrate(collisions_per_particle: f64) -> Stage {
         },
         limits: Limits::default(),
         thermostat: false,
+        wall_growth: 1.0,
     }
 }
 
@@ -637,6 +639,7 @@ fn coordinates_offset_by_a_million() {
         },
         limits: Limits::default(),
         thermostat: true,
+        wall_growth: 1.0,
     };
     let offset = 1e6;
     let periodic = PeriodicBox {
@@ -771,6 +774,7 @@ fn grow_towards_jamming(z: f64, cap: Option<f64>, events: u64) -> Stage {
             ..Limits::default()
         },
         thermostat: true,
+        wall_growth: 1.0,
     }
 }
 

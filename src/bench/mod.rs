@@ -142,8 +142,8 @@ pub const STUDIES: &[Study] = &[
     },
     Study {
         name: "fuller",
-        summary: "concrete case 1: RSA against EDMD (paper 001, Fig. 7); opt-in, hours",
-        default: false,
+        summary: "concrete case 1: RSA against EDMD, ψ and t_ψ against φ_eff (paper 001, Fig. 7)",
+        default: true,
         run: concrete::fuller,
     },
 ];

@@ -415,11 +415,15 @@ pub struct StageSpec {
     pub stall_epsilon: Option<f64>,
     /// Rescale velocities to the temperature at barriers (default: on when growing).
     pub thermostat: Option<bool>,
-    /// With `until.gap`: the gap kept between the grains and the walls, in `[0, gap/2]`
-    /// (default `gap/2`). Below `gap/2` the walls step back by the difference for the stage,
-    /// so the grains' coats may reach into them (paper 001 §6.3 keeps the gap between grains
-    /// only: `wall_gap = 0`).
+    /// With `until.gap`: the gap kept between the grains and the walls (mm), in `[0, gap/2]`
+    /// (default `gap/2`); the same as `wall_gap_fraction = wall_gap / gap`.
     pub wall_gap: Option<f64>,
+    /// In a gap stage (`until.gap` or `until.max_gap`): the gap kept to the walls as a
+    /// fraction `λ` of the gap Δd between grains, in `[0, 1/2]` (default 1/2: each grain
+    /// keeps its half of the gap to the walls too; 0: grains may touch the walls). The walls
+    /// see every grain grow at `2λ` times the pair rate, so the wall gap is `λ·Δd(t)` at
+    /// every time, and `λ·Δd_max` for `max_gap`.
+    pub wall_gap_fraction: Option<f64>,
 }
 
 /// A scene that cannot be run, naming the field.
@@ -1021,8 +1025,18 @@ impl Scene {
                     return Err(invalid(f("stall_epsilon"), format!("= {x} must be ≥ 0")));
                 }
             }
-            if s.wall_gap.is_some() && u.gap.is_none() {
-                return Err(invalid(f("wall_gap"), "applies only with `until.gap`"));
+            if !s.opens_gap() {
+                for (key, given) in [
+                    ("wall_gap", s.wall_gap.is_some()),
+                    ("wall_gap_fraction", s.wall_gap_fraction.is_some()),
+                ] {
+                    if given {
+                        return Err(invalid(
+                            f(key),
+                            "applies only to a gap stage (`until.gap` or `until.max_gap`)",
+                        ));
+                    }
+                }
             }
             if u.full_size.is_some() {
                 if s.growth != GrowthKind::Relative {
@@ -1073,9 +1087,28 @@ impl Scene {
                         "cannot be combined with packing_fraction or full_size",
                     ));
                 }
+                if let Some(x) = s.wall_gap_fraction {
+                    if s.wall_gap.is_some() {
+                        return Err(invalid(
+                            f("wall_gap_fraction"),
+                            "give either `wall_gap` or `wall_gap_fraction`",
+                        ));
+                    }
+                    if !(x.is_finite() && (0.0..=0.5).contains(&x)) {
+                        return Err(invalid(
+                            f("wall_gap_fraction"),
+                            format!("= {x} is outside the allowed range [0, 0.5]"),
+                        ));
+                    }
+                }
                 if let Some(w) = s.wall_gap {
                     let Some(g) = u.gap else {
-                        return Err(invalid(f("wall_gap"), "applies only with `until.gap`"));
+                        return Err(invalid(
+                            f("wall_gap"),
+                            "is a length and applies with `until.gap`; with `max_gap` the \
+                             gap is not known in advance: give `wall_gap_fraction` in \
+                             [0, 0.5] (wall gap / Δd) instead",
+                        ));
                     };
                     if !(w.is_finite() && (0.0..=0.5 * g).contains(&w)) {
                         return Err(invalid(
@@ -1213,6 +1246,16 @@ impl StageSpec {
         self.until.gap.is_some() || self.until.max_gap.is_some()
     }
 
+    /// The gap a gap stage keeps to the walls as a fraction `λ` of the gap between grains:
+    /// `wall_gap_fraction`, or `wall_gap / gap`, or 1/2.
+    pub fn wall_gap_fraction(&self) -> f64 {
+        match (self.wall_gap_fraction, self.wall_gap, self.until.gap) {
+            (Some(x), _, _) => x,
+            (None, Some(w), Some(g)) => w / g,
+            _ => 0.5,
+        }
+    }
+
     /// The kernel stage this spec describes. `full_size_fraction` is the packing fraction
     /// of the spheres at their true sizes (the `full_size` goal).
     pub fn to_stage(&self, full_size_fraction: f64) -> Stage {
@@ -1250,6 +1293,12 @@ impl StageSpec {
                 stall_epsilon: self.stall_epsilon.unwrap_or(0.0),
             },
             thermostat: self.thermostat.unwrap_or(growth != Growth::None),
+            // The walls see a grain grow at 2λ times its rate: wall gap λ·Δd(t), Δd = 2·rate·t.
+            wall_growth: if self.opens_gap() {
+                2.0 * self.wall_gap_fraction()
+            } else {
+                1.0
+            },
         }
     }
 }

@@ -161,6 +161,9 @@ where
             skin: snapshot.skin,
             scratch: Vec::new(),
             mean_radius: snapshot.mean_radius,
+            // Set by the stage the kernel continues (`Edmd::continue_stage`).
+            wall_growth: 1.0,
+            stage_clock: 0.0,
         })
     }
 }
@@ -243,6 +246,7 @@ mod tests {
             },
             limits: Limits::default(),
             thermostat: true,
+            wall_growth: 1.0,
         };
         let k: Edmd<Sphere, _, CalendarQueue> = kernel(boundary, 125, 0.4);
         assert_resumes_exactly(k, &stage, 20);
@@ -263,6 +267,7 @@ mod tests {
             },
             limits: Limits::default(),
             thermostat: false,
+            wall_growth: 1.0,
         };
         let k: Edmd<Sphere, _, HeapQueue> = kernel(boundary, 150, 0.35);
         assert_resumes_exactly(k, &stage, 30);

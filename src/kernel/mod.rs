@@ -246,6 +246,11 @@ pub struct Edmd<S: Collidable, B: Boundary, Q: EventQueue> {
     scratch: Vec<u32>,
     /// Mean bounding radius at the start of the current barrier interval.
     mean_radius: f64,
+    /// [`Stage::wall_growth`] of the running stage: the fraction of each bounding growth
+    /// rate that the walls see (1 outside stages that set it).
+    wall_growth: f64,
+    /// Simulated time of the running stage at kernel time 0 (the last barrier).
+    stage_clock: f64,
 }
 
 impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
@@ -351,6 +356,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             skin,
             scratch: Vec::new(),
             mean_radius: 0.0,
+            wall_growth: 1.0,
+            stage_clock: 0.0,
         };
         kernel.rescale_temperature();
         kernel.update_mean_radius();
@@ -403,15 +410,6 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// The container.
     pub fn boundary(&self) -> &B {
         &self.boundary
-    }
-
-    /// Replaces the container between stages, e.g. by one whose walls stand further out
-    /// (a gap stage that keeps less than half the gap to the walls). Every particle must lie
-    /// inside the new container; the cell grid is rebuilt over it.
-    pub fn replace_boundary(&mut self, boundary: B) {
-        self.boundary = boundary;
-        let width = self.grid.min_width();
-        self.rebuild_grid(width);
     }
 
     /// Event counts since the kernel was built.
@@ -774,13 +772,12 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let p = &self.particles[i];
         let pos = p.position_at(t);
         if B::HAS_WALLS {
-            let contact = if S::SHAPED_PLANE_CONTACT && B::PLANAR_WALLS {
+            let contact = if self.shaped_wall_contacts() {
                 let spin = p.spin_at(t);
                 self.boundary
                     .predict_shaped_wall(&pos, &p.vel, &p.shape, &spin, t, max_tau)
             } else {
-                let r = p.shape.bounding_radius(t);
-                let g = p.shape.bounding_growth_rate();
+                let (r, g) = self.wall_sphere(&p.shape, t);
                 self.boundary.predict_wall(&pos, &p.vel, r, g, max_tau)
             };
             if let Some((tau, wall)) = contact {
@@ -797,6 +794,27 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             self.local
                 .push(i, LocalEvent::new(t + tau, EventKind::NeighbourList));
         }
+    }
+
+    /// Whether wall contacts go through the shape's own plane contacts: the shape and the
+    /// container allow it and the walls see the whole growth (a fixed choice for spheres).
+    #[inline]
+    fn shaped_wall_contacts(&self) -> bool {
+        S::SHAPED_PLANE_CONTACT && B::PLANAR_WALLS && self.wall_growth == 1.0
+    }
+
+    /// The sphere the walls see of `shape` at kernel time `t`: its radius and growth rate.
+    /// The walls see the bounding sphere grow at [`Stage::wall_growth`] `f` times its rate
+    /// `g` since the stage began: radius `r(t) − (1 − f)·g·τ` at stage time `τ`, rate `f·g`.
+    /// With `f = 1` (every stage but gap stages) both are the bounding sphere's.
+    #[inline]
+    fn wall_sphere(&self, shape: &S, t: f64) -> (f64, f64) {
+        let (r, g) = (shape.bounding_radius(t), shape.bounding_growth_rate());
+        if self.wall_growth == 1.0 {
+            return (r, g);
+        }
+        let lag = (1.0 - self.wall_growth) * g;
+        (r - lag * (self.stage_clock + t), g - lag)
     }
 
     /// Puts particle `i`'s earliest local event into the queue (or removes it). A list that
@@ -911,10 +929,11 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let n = self.boundary.wall_normal(wall, &p.pos);
         let m = self.mass(p, t);
         let mut spin = p.spin;
-        let (dv, virial) = if S::SHAPED_PLANE_CONTACT && B::PLANAR_WALLS {
+        let (dv, virial) = if self.shaped_wall_contacts() {
             p.shape.plane_impulse(&mut spin, &n, &p.vel, t, m)
         } else {
-            bounding_sphere_wall_impulse(&p.shape, &n, &p.vel, t, m)
+            let (r, g) = self.wall_sphere(&p.shape, t);
+            bounding_sphere_wall_impulse(r, g, &n, &p.vel, m)
         };
         self.virial += virial;
         self.particles[i].vel += dv;

@@ -55,6 +55,15 @@ pub struct Stage {
     /// Rescale velocities to the set temperature at every barrier. Growth heats the system,
     /// so growth stages want it; equilibrium stages conserve energy without it.
     pub thermostat: bool,
+    /// Fraction `f ∈ [0, 1]` of each particle's bounding growth rate `g` that the walls see:
+    /// a wall meets the particle's bounding sphere less `(1 − f)·g·τ` at stage time `τ`, so
+    /// the particle at its size of the stage start keeps `f·g·τ` from the walls while its
+    /// bounding sphere reaches `(1 − f)·g·τ` into them. 1 (walls see the particle as it is)
+    /// for every stage but gap stages (paper 001, Eq. 31), where the grains' true sizes are
+    /// those of the stage start and `f = 2·wall gap/Δd`. Shapes with their own plane contacts
+    /// ([`Collidable::SHAPED_PLANE_CONTACT`]) meet walls through their bounding sphere when
+    /// `f < 1`.
+    pub wall_growth: f64,
 }
 
 /// Why a stage stopped.
@@ -315,6 +324,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             stopped: None,
         };
         let wall_before = progress.wall_seconds;
+        self.wall_growth = stage.wall_growth;
         let target_events = self.config.events_per_particle_per_interval * n;
         let mut interval = self.interval;
         while report_reason.is_none() {
@@ -334,6 +344,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 self.counters.neighbour_list_updates,
             );
             let failures_before = S::numerical_failures();
+            self.stage_clock = progress.stage_time;
             self.begin_interval(this);
             // An interval that takes far more events than planned ends early: the approach
             // to jamming inside one interval (the collision rate diverges there) would

@@ -188,28 +188,32 @@ pub trait Collidable: Clone + Send + Sync + 'static {
         t: f64,
         mass: f64,
     ) -> (Vec3, f64) {
-        bounding_sphere_wall_impulse(self, n, vel, t, mass)
+        bounding_sphere_wall_impulse(
+            self.bounding_radius(t),
+            self.bounding_growth_rate(),
+            n,
+            vel,
+            mass,
+        )
     }
 }
 
-/// Wall response of a particle through its bounding sphere (paper 001, Eq. 24 for a sphere
-/// that does not grow): the gap velocity `n·v − g` is reflected, and never left closing.
-/// Returns the velocity change and the virial `J·r`.
+/// Wall response of a particle through a sphere of radius `r` growing at `g` (length/time)
+/// around its centre — its bounding sphere, or the sphere the walls see in a stage with
+/// [`crate::kernel::Stage::wall_growth`] below 1 (paper 001, Eq. 24 for a sphere that does
+/// not grow): the gap velocity `n·v − g` is reflected, and never left closing. Returns the
+/// velocity change and the virial `J·r` (`mass` times the velocity change times `r`).
 #[inline]
-pub fn bounding_sphere_wall_impulse<S: Collidable>(
-    shape: &S,
+pub fn bounding_sphere_wall_impulse(
+    r: f64,
+    g: f64,
     n: &Vec3,
     vel: &Vec3,
-    t: f64,
     mass: f64,
 ) -> (Vec3, f64) {
-    let g = shape.bounding_growth_rate();
     let u = vel.dot(n);
     let u_after = (2.0 * g - u).max(g);
-    (
-        n * (u_after - u),
-        mass * (u_after - u) * shape.bounding_radius(t),
-    )
+    (n * (u_after - u), mass * (u_after - u) * r)
 }
 
 /// First time `τ ≥ 0` at which a gap-like quadratic `f(τ) = a τ² + 2 b τ + c` reaches zero
