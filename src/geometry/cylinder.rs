@@ -384,6 +384,12 @@ fn unit_or(v: Vector3<f64>, fallback: Vector3<f64>) -> Vector3<f64> {
     }
 }
 
+/// `√(a² + b²)`: the arguments are lengths of the scene (no overflow to guard against, so
+/// no `hypot`, a library call several times slower in the RSA inner loop).
+fn norm2(a: f64, b: f64) -> f64 {
+    (a * a + b * b).sqrt()
+}
+
 /// Tolerance of a pair of sizes.
 fn tolerance(size: f64) -> f64 {
     RELATIVE_TOLERANCE * size
@@ -435,7 +441,7 @@ pub fn intersect_sphere_cylinder(s: &Sphere, c: &Cylinder) -> Option<SphereCylin
     // Radial unit vector from the axis towards the sphere centre.
     let radial = unit_or(w_perp, any_perpendicular(&u));
     // sc1: the farthest point of the cylinder from p_s is a rim point.
-    let far = (ax + h).hypot(l + c.radius);
+    let far = norm2(ax + h, l + c.radius);
     if s.radius - far > tol {
         let normal = unit_or(c.center - s.center, u);
         return Some(SphereCylinderContact {
@@ -486,7 +492,7 @@ pub fn intersect_sphere_cylinder(s: &Sphere, c: &Cylinder) -> Option<SphereCylin
     // sc4: the nearest point is the rim point q; intersect iff ‖p_s − q‖ < r_s, i.e.
     // L − r_c < sqrt(r_s² − (|X| − h)²).
     let q = base_center + radial * c.radius;
-    let dist = (ax - h).hypot(l - c.radius);
+    let dist = norm2(ax - h, l - c.radius);
     let depth = s.radius - dist;
     if depth <= tol {
         return None;
@@ -618,11 +624,11 @@ fn disk_point_nearest_axis(c: &Cylinder, d: &Disk) -> (Vector3<f64>, bool) {
         f64::INFINITY
     };
     let free = (free1, -b2);
-    if free.0.is_finite() && free.0.hypot(free.1) <= r {
+    if free.0.is_finite() && norm2(free.0, free.1) <= r {
         return (d.center + e1 * free.0 + e2 * free.1, lam1 > 0.0);
     }
     // Bisection on μ in [0, |b|/r], where |y(μ)| ≤ |b|/μ ≤ r.
-    let bnorm = b1.hypot(b2);
+    let bnorm = norm2(b1, b2);
     let y_of = |mu: f64| (-b1 / (lam1 + mu), -b2 / (1.0 + mu));
     let (mut lo, mut hi) = (0.0_f64, bnorm / r);
     for _ in 0..200 {
@@ -638,7 +644,7 @@ fn disk_point_nearest_axis(c: &Cylinder, d: &Disk) -> (Vector3<f64>, bool) {
         }
     }
     let y = y_of(hi);
-    let norm = y.0.hypot(y.1);
+    let norm = norm2(y.0, y.1);
     let scale = if norm > r { r / norm } else { 1.0 };
     (d.center + e1 * (y.0 * scale) + e2 * (y.1 * scale), false)
 }
@@ -772,6 +778,19 @@ pub fn segment_distance_squared(
     w: &Vector3<f64>,
     hq: f64,
 ) -> f64 {
+    segment_closest_points(p, u, hp, q, w, hq).2
+}
+
+/// [`segment_distance_squared`] with the parameters `(s, t)` of a closest pair of points
+/// `p + s u`, `q + t w`: `(s, t, distance²)`.
+fn segment_closest_points(
+    p: &Vector3<f64>,
+    u: &Vector3<f64>,
+    hp: f64,
+    q: &Vector3<f64>,
+    w: &Vector3<f64>,
+    hq: f64,
+) -> (f64, f64, f64) {
     let d = p - q;
     let b = u.dot(w);
     let (e, f) = (u.dot(&d), w.dot(&d));
@@ -784,7 +803,7 @@ pub fn segment_distance_squared(
         let s = (b * f - e) / denom;
         let t = (f - b * e) / denom;
         if s.abs() <= hp && t.abs() <= hq {
-            return dist2(s, t);
+            return (s, t, dist2(s, t));
         }
     }
     // The minimum lies on an edge of the rectangle.
@@ -795,8 +814,14 @@ pub fn segment_distance_squared(
         (s_of(hq), hq),
     ]
     .into_iter()
-    .map(|(s, t)| dist2(s, t))
-    .fold(f64::INFINITY, f64::min)
+    .map(|(s, t)| (s, t, dist2(s, t)))
+    .fold((0.0, 0.0, f64::INFINITY), |best, x| {
+        if x.2 < best.2 {
+            x
+        } else {
+            best
+        }
+    })
 }
 
 /// Shared body of [`intersect_cylinder_cylinder`] and [`overlaps`]; with `first_only` it
@@ -822,7 +847,8 @@ fn cylinder_cylinder_early(a: &Cylinder, b: &Cylinder) -> Option<Option<Cylinder
     // Bounding capsules (each cylinder lies within its radius of its axis segment): an
     // exact early exit, with the touching tolerance on the safe side.
     let reach = a.radius + b.radius + tol;
-    if segment_distance_squared(&a.center, &u1, ha, &b.center, &u2, hb) >= reach * reach {
+    let (s_near, t_near, gap2) = segment_closest_points(&a.center, &u1, ha, &b.center, &u2, hb);
+    if gap2 >= reach * reach {
         return Some(None);
     }
     // Separating axes along either cylinder axis: the projection of a cylinder `(u, h, r)`
@@ -833,12 +859,11 @@ fn cylinder_cylinder_early(a: &Cylinder, b: &Cylinder) -> Option<Option<Cylinder
         let c = u.dot(n).abs();
         h * c + r * (1.0 - c * c).max(0.0).sqrt()
     };
-    for n in [&u1, &u2] {
-        if d.dot(n).abs() - half_extent(&u1, ha, a.radius, n) - half_extent(&u2, hb, b.radius, n)
-            > 0.0
-        {
-            return Some(None);
-        }
+    let separates = |n: &Vector3<f64>| {
+        d.dot(n).abs() - half_extent(&u1, ha, a.radius, n) - half_extent(&u2, hb, b.radius, n) > 0.0
+    };
+    if separates(&u1) || separates(&u2) {
+        return Some(None);
     }
     // Step 1: common normal of the axes.
     let c = cross(&u1, &u2);
@@ -867,6 +892,18 @@ fn cylinder_cylinder_early(a: &Cylinder, b: &Cylinder) -> Option<Option<Cylinder
             normal,
             depth: a.radius + b.radius - rho,
         })));
+    }
+    // Before the base tests: three more candidate separating axes (unit, same exact
+    // projection test), from the closest points `x_a`, `x_b` of the axis segments: their
+    // difference `g = x_b − x_a`, and `g` without its component along either axis (the
+    // normal of the curved face at the point nearest the other body). They separate most
+    // pairs whose bounding capsules meet near an end, e.g. end-to-side and skew ends.
+    let g = (b.center + u2 * t_near) - (a.center + u1 * s_near);
+    for n in [g, g - u1 * u1.dot(&g), g - u2 * u2.dot(&g)] {
+        let norm = n.norm();
+        if norm > 0.0 && separates(&(n / norm)) {
+            return Some(None);
+        }
     }
     None
 }
