@@ -824,12 +824,6 @@ fn segment_closest_points(
     })
 }
 
-/// Shared body of [`intersect_cylinder_cylinder`] and [`overlaps`]; with `first_only` it
-/// returns as soon as one base intersection is found.
-fn cylinder_cylinder(a: &Cylinder, b: &Cylinder, first_only: bool) -> Option<CylinderContact> {
-    cylinder_cylinder_early(a, b).unwrap_or_else(|| base_contacts(a, b, first_only))
-}
-
 /// Algorithm 4 up to the base tests: `Some(answer)` when bounding spheres, bounding
 /// capsules, a separating axis along either cylinder axis, parallel axes, the axis
 /// distance or `cc1` decide; `None` when only the base tests ([`base_contacts`]) can tell.
@@ -960,6 +954,34 @@ fn base_contacts(a: &Cylinder, b: &Cylinder, first_only: bool) -> Option<Cylinde
     }
 }
 
+/// A sufficient condition for an intersection, tried before the base tests when only the
+/// verdict is wanted: some point `y` lies inside both cylinders at a depth of more than
+/// `δ = 10⁻⁶ · size` (axially and radially), so the ball of radius `δ` about `y` lies in
+/// both and the pair penetrates by far more than the touching tolerance — the exact tests
+/// would report it. Candidates for `y`: the four base centres, and the point dividing the
+/// shortest segment between the axes in the ratio of the radii (within `r₁` of the first
+/// axis and `r₂` of the second whenever the capsules meet).
+fn share_a_deep_point(a: &Cylinder, b: &Cylinder) -> bool {
+    let (ha, hb) = (a.half_length(), b.half_length());
+    let margin = 1e-6 * cylinder_size(a).max(cylinder_size(b));
+    let (u1, u2) = (a.half_axis / ha, b.half_axis / hb);
+    let inside = |c: &Cylinder, u: &Vector3<f64>, h: f64, y: &Vector3<f64>| {
+        let w = y - c.center;
+        let x = w.dot(u);
+        let r = c.radius - margin;
+        x.abs() < h - margin && (w - u * x).norm_squared() < r * r
+    };
+    let (s, t, _) = segment_closest_points(&a.center, &u1, ha, &b.center, &u2, hb);
+    let (xa, xb) = (a.center + u1 * s, b.center + u2 * t);
+    let y = xa + (xb - xa) * (a.radius / (a.radius + b.radius));
+    let in_both = |y: &Vector3<f64>| inside(a, &u1, ha, y) && inside(b, &u2, hb, y);
+    in_both(&y)
+        || [1.0, -1.0].iter().any(|&sign| {
+            inside(a, &u1, ha, &(b.center + b.half_axis * sign))
+                || inside(b, &u2, hb, &(a.center + a.half_axis * sign))
+        })
+}
+
 /// Cylinder–cylinder test (Algorithm 4, Fig. 21–29).
 ///
 /// Exactness rests on the observation of §II.B, re-derived here. Let `K = I₁ ∩ I₂` be the
@@ -972,7 +994,7 @@ fn base_contacts(a: &Cylinder, b: &Cylinder, first_only: bool) -> Option<Cylinde
 /// For parallel axes `K` is unbounded along the axes, so the case cannot occur and the
 /// bodies intersect iff both cross-sections and axial intervals overlap.
 pub fn intersect_cylinder_cylinder(a: &Cylinder, b: &Cylinder) -> Option<CylinderContact> {
-    cylinder_cylinder(a, b, false)
+    cylinder_cylinder_early(a, b).unwrap_or_else(|| base_contacts(a, b, false))
 }
 
 /// Whether two shapes intersect (touching within [`RELATIVE_TOLERANCE`] does not count).
@@ -984,7 +1006,10 @@ pub fn overlaps(a: &Shape, b: &Shape) -> bool {
         (Shape::Sphere(s), Shape::Cylinder(c)) | (Shape::Cylinder(c), Shape::Sphere(s)) => {
             intersect_sphere_cylinder(s, c).is_some()
         }
-        (Shape::Cylinder(c), Shape::Cylinder(e)) => cylinder_cylinder(c, e, true).is_some(),
+        (Shape::Cylinder(c), Shape::Cylinder(e)) => match cylinder_cylinder_early(c, e) {
+            Some(found) => found.is_some(),
+            None => share_a_deep_point(c, e) || base_contacts(c, e, true).is_some(),
+        },
     }
 }
 

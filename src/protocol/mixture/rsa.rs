@@ -461,20 +461,17 @@ impl ImageScan {
     pub fn any_image(&self, probe: &Shape, mut hit: impl FnMut(usize, Vec3) -> bool) -> bool {
         let (c, rq) = (probe.center(), probe.bounding_radius());
         debug_assert!((0..3).all(|k| c[k] >= self.min[k] && c[k] < self.min[k] + self.len[k]));
-        let (len, half) = (self.len, self.len * 0.5);
+        let len = self.len;
+        let inv = len.map(|l| 1.0 / l);
         let one_image = 2.0 * (rq + self.max_radius) <= len.min();
         for (j, &[x, y, z, r]) in self.balls.iter().enumerate() {
-            // Minimum image per axis, and the lattice vector that produced it.
+            // Minimum image per axis, `n_k = round(d_k / L_k) ∈ {−1, 0, 1}`, without a
+            // branch (the sign of a separation is a coin flip, so branches mispredict):
+            // `d_k / L_k + 1.5 ∈ (0.5, 2.5)`, whose truncation is its floor.
             let mut d = Vec3::new(x - c.x, y - c.y, z - c.z);
-            let mut t = Vec3::zeros();
-            for k in 0..3 {
-                if d[k] > half[k] {
-                    t[k] = -len[k];
-                } else if d[k] < -half[k] {
-                    t[k] = len[k];
-                }
-                d[k] += t[k];
-            }
+            let n = Vec3::from_fn(|k, _| ((d[k] * inv[k] + 1.5) as i64 - 1) as f64);
+            let t = -n.component_mul(&len);
+            d += t;
             let reach = rq + r;
             if one_image {
                 if d.norm_squared() < reach * reach && hit(j, t) {
