@@ -1119,3 +1119,71 @@ pub fn for_each_contact(a: &Shape, b: &Shape, mut f: impl FnMut(Contact)) {
         },
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_xoshiro::Xoshiro256PlusPlus;
+
+    /// The plain verdict of Algorithm 4: the early steps, else the base tests.
+    fn plain(a: &Cylinder, b: &Cylinder) -> bool {
+        cylinder_cylinder_early(a, b)
+            .unwrap_or_else(|| base_contacts(a, b, false))
+            .is_some()
+    }
+
+    /// [`share_a_deep_point`] never claims an intersection that the base tests deny, and
+    /// [`overlaps`] (which tries it first) agrees with the plain verdict: random cylinder
+    /// pairs, and for each one the pair moved along its centre line to within `10⁻⁷` of
+    /// the last separation at which the plain verdict changes (found by bisection), where
+    /// a shortcut that is too bold would show.
+    #[test]
+    fn deep_point_shortcut_agrees_with_the_base_tests() {
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(0xdee9_0017);
+        let direction = |rng: &mut Xoshiro256PlusPlus| {
+            let v = Vector3::from_fn(|_, _| rng.gen_range(-1.0..1.0));
+            v / v.norm()
+        };
+        let (mut shortcut, mut base_needed) = (0usize, 0usize);
+        for _ in 0..4000 {
+            let (ua, ub, ud) = (
+                direction(&mut rng),
+                direction(&mut rng),
+                direction(&mut rng),
+            );
+            let [ha, ra, hb, rb] = [0; 4].map(|_| rng.gen_range(0.2..2.5));
+            let a = Cylinder::new(Vector3::zeros(), ua * ha, ra);
+            let far = 2.0 * (a.half_length() + a.radius + hb + rb);
+            let at = |lambda: f64| Cylinder::new(ud * (lambda * far), ub * hb, rb);
+            // Last λ ∈ [0, 1] where the plain verdict changes (it holds at 0, not at 1).
+            let (mut lo, mut hi) = (0.0, 1.0);
+            for _ in 0..60 {
+                let mid = 0.5 * (lo + hi);
+                if plain(&a, &at(mid)) {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            for lambda in [lo * (1.0 - 1e-7), hi * (1.0 + 1e-7), 0.5 * lo, lo * 0.9] {
+                let b = at(lambda);
+                let truth = plain(&a, &b);
+                assert_eq!(
+                    overlaps(&Shape::Cylinder(a), &Shape::Cylinder(b)),
+                    truth,
+                    "{a:?} {b:?}"
+                );
+                if cylinder_cylinder_early(&a, &b).is_none() {
+                    base_needed += 1;
+                    if share_a_deep_point(&a, &b) {
+                        shortcut += 1;
+                        assert!(truth, "shortcut claims an intersection: {a:?} {b:?}");
+                    }
+                }
+            }
+        }
+        println!("base tests needed {base_needed}, decided by the shortcut {shortcut}");
+        assert!(shortcut > 500 && base_needed > shortcut + 500);
+    }
+}
