@@ -8,7 +8,7 @@ use densepack::geometry::cylinder::{
     intersect_sphere_sphere, overlaps, overlaps_decided_early, BaseContact, Cylinder,
     CylinderContact, DiskDiskKind, DiskSideKind, End, Shape, Sphere, SphereCylinderKind,
 };
-use densepack::protocol::mixture::rsa::CapsuleGrid;
+use densepack::protocol::mixture::rsa::{CapsuleGrid, ImageScan};
 use nalgebra::Vector3;
 use rand::{Rng, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -600,7 +600,8 @@ fn random_pairs_agree_with_gjk_oracle() {
     assert!(checked > 90_000 && overlapping > 10_000);
 }
 
-/// The RSA broad phase (`CapsuleGrid` cells, then the cheap steps of the exact tests) never
+/// The RSA broad phase (`CapsuleGrid` cells or the `ImageScan` of bounding spheres, then the
+/// cheap steps of the exact tests) never
 /// drops an image the exact test finds intersecting: random pairs (every degeneracy, a
 /// third within ±1e-6 of touching, so also the pairs the separating-axis exit sees at the
 /// margin) in a periodic box of edge 6 (bodies up to 5 long), against every lattice image
@@ -644,6 +645,14 @@ fn rsa_broad_phase_keeps_every_intersecting_image() {
             listed.push(offset);
             false
         });
+        let mut scan = ImageScan::new(&boundary);
+        scan.push(&a);
+        let mut scanned = Vec::new();
+        scan.any_image(&b, |j, offset| {
+            assert_eq!(j, 0);
+            scanned.push(offset);
+            false
+        });
         for n in 0..125 {
             let t = V::new(
                 (n % 5) as f64 - 2.0,
@@ -664,6 +673,10 @@ fn rsa_broad_phase_keeps_every_intersecting_image() {
                 assert!(
                     listed.contains(&t),
                     "broad phase dropped the intersecting image {t:?}: {b:?} vs {a:?}"
+                );
+                assert!(
+                    scanned.contains(&t),
+                    "image scan dropped the intersecting image {t:?}: {b:?} vs {a:?}"
                 );
             }
         }

@@ -83,9 +83,12 @@ pub fn generate(
     let start = Instant::now();
     let cpu_start = cpu_time::ThreadTime::now();
     let rve = if method == "rsa" {
+        // The paper's protocol: relaunch until the time limit. A start is abandoned when a
+        // body is proven jammed (no free centre) or after 10⁶ uniform draws of one body.
         let limits = RsaLimits {
             time_limit: Some(Duration::from_secs_f64(limit)),
-            ..RsaLimits::default()
+            max_attempts_per_body: 1_000_000,
+            max_restarts: u32::MAX,
         };
         rsa_mixture(&boundary, &sizes, &limits, &mut rng)
             .map_err(|e| GenerationFailure::GaveUp {

@@ -8,7 +8,8 @@
 //! in a [`PeriodicBox`]. Every intersection question goes to the exact typed tests of
 //! [`crate::geometry::cylinder`]; the relaxer's candidate pairs come from a [`CellGrid`]
 //! over the wrapped centres with cells as wide as the largest bounding diameter, RSA's from
-//! a capsule-aware index ([`rsa::CapsuleGrid`]); every periodic image of a partner that can
+//! a scan of the placed bodies ([`rsa::ImageScan`]) or a capsule-aware index
+//! ([`rsa::CapsuleGrid`]); every periodic image of a partner that can
 //! reach the body is tested — across faces, edges and corners, and a long cylinder against
 //! its own images.
 //!

@@ -13,10 +13,14 @@
 //!
 //! # Cost of a candidate
 //!
-//! Three devices make a candidate cheap without changing which candidates are accepted:
-//! * [`CapsuleGrid`]: a periodic cell index over the bodies' capsules (cells about one
-//!   cylinder radius wide, each body registered along its whole axis with the lattice shift
-//!   of every image), so a candidate meets only the images near its own axis.
+//! Four devices make a candidate cheap without changing which candidates are accepted:
+//! * [`ImageScan`]: while candidates are seldom rejected, every placed body is scanned
+//!   (minimum image, bounding spheres); nothing is registered, so a body costs nothing
+//!   beyond its own candidates.
+//! * [`CapsuleGrid`]: once a body has been rejected 256 times in a row, a periodic cell
+//!   index over the bodies' capsules (cells about one cylinder radius wide, each body
+//!   registered along its whole axis with the lattice shift of every image), so a
+//!   candidate meets only the images near its own axis.
 //! * Two passes over those images: first the pairs that the cheap steps of the exact tests
 //!   decide ([`overlaps_decided_early`]: bounding spheres, capsules, a separating axis along
 //!   either cylinder axis, `cc1`), stopping at the first intersection; then, only if none
@@ -273,21 +277,47 @@ impl Tiling {
             let (p, q) = ((xa - r - center[a]) / l, (xa + r - center[a]) / l);
             (ta.max(p.min(q)), tb.min(p.max(q)))
         };
+        // Per axis, the box index and lattice shift of an unwrapped index, and the stride
+        // of the axis in the box cell number (so the innermost loop divides nothing).
+        let strides = [1, self.counts[0], self.counts[0] * self.counts[1]];
+        let wrap = |a: usize, i: i64| {
+            let m = self.counts[a];
+            (i.rem_euclid(m), i.div_euclid(m) as i8)
+        };
         let [a0, a1, a2] = order;
+        let mut x = Vec3::zeros();
+        let mut shift: Shift = [0; 3];
         for i0 in span(a0, (-1.0, 1.0)) {
-            let t0 = narrow(a0, centre_of(a0, i0), (-1.0, 1.0));
+            x[a0] = centre_of(a0, i0);
+            let t0 = narrow(a0, x[a0], (-1.0, 1.0));
             if t0.0 > t0.1 {
                 continue;
             }
+            let (c0, s0) = wrap(a0, i0);
+            shift[a0] = s0;
             for i1 in span(a1, t0) {
-                let t1 = narrow(a1, centre_of(a1, i1), t0);
+                x[a1] = centre_of(a1, i1);
+                let t1 = narrow(a1, x[a1], t0);
                 if t1.0 > t1.1 {
                     continue;
                 }
-                for i2 in span(a2, t1) {
-                    let mut i = [0i64; 3];
-                    (i[a0], i[a1], i[a2]) = (i0, i1, i2);
-                    let x = Vec3::from_fn(|a, _| centre_of(a, i[a]));
+                let (c1, s1) = wrap(a1, i1);
+                shift[a1] = s1;
+                let base = c0 * strides[a0] + c1 * strides[a1];
+                // The row's centres are `x + e_{a2} x_{a2}`, built by arithmetic rather
+                // than by storing into one component (a store-forwarding stall per cell).
+                x[a2] = 0.0;
+                let row = x;
+                let e2 = Vec3::from_fn(|a, _| if a == a2 { 1.0 } else { 0.0 });
+                let range = span(a2, t1);
+                let (mut c2, mut s2) = wrap(a2, *range.start());
+                for i2 in range {
+                    if c2 == self.counts[a2] {
+                        (c2, s2) = (0, s2 + 1);
+                    }
+                    let cell = (base + c2 * strides[a2]) as usize;
+                    c2 += 1;
+                    let x = row + e2 * centre_of(a2, i2);
                     let v = x - center;
                     let t = if l2 > 0.0 {
                         (v.dot(half_axis) / l2).clamp(-1.0, 1.0)
@@ -297,7 +327,7 @@ impl Tiling {
                     if (v - half_axis * t).norm_squared() > r * r {
                         continue;
                     }
-                    let (cell, shift) = self.wrapped(i);
+                    shift[a2] = s2;
                     if visit(cell, shift, &x) {
                         return true;
                     }
@@ -384,6 +414,83 @@ impl CapsuleGrid {
     }
 }
 
+/// The plain candidate search: every placed body, each image whose bounding sphere meets
+/// the probe's. Nothing is registered but a centre, so it is the search of choice while
+/// candidates are seldom rejected (a few nanoseconds per placed body and candidate, against
+/// hundreds of cells to register per body in a [`CapsuleGrid`]).
+///
+/// Centres (of bodies and probes) must lie in the box `[min, min + L)`, as RSA draws them:
+/// then a separation `d` has `|d_k| < L_k` and one conditional shift per axis gives the
+/// minimum image `d*`. The image `d* + t` of a body can meet the probe only if
+/// `‖d* + t‖ < R_q + R_j` (bounding radii). When `R_q + R_j ≤ L_min / 2` the minimum
+/// image is the only candidate (any other has `‖d* + t‖ ≥ ‖t‖ − ‖d*‖ ≥ L_min − ‖d*‖`, above
+/// the reach whenever `‖d*‖` is below it), otherwise every lattice vector within reach is
+/// tried. Completeness is that of the bounding-sphere exit of the exact tests, so the scan
+/// changes the cost of Algorithm 5, never its acceptance rule.
+#[derive(Clone, Debug)]
+pub struct ImageScan {
+    min: Vec3,
+    len: Vec3,
+    /// Per body: centre and bounding radius.
+    balls: Vec<[f64; 4]>,
+    max_radius: f64,
+}
+
+impl ImageScan {
+    /// An empty scan of `boundary`.
+    pub fn new(boundary: &PeriodicBox) -> Self {
+        Self {
+            min: boundary.min,
+            len: boundary.len,
+            balls: Vec::new(),
+            max_radius: 0.0,
+        }
+    }
+
+    /// Registers the next body (ids `0, 1, 2, …` in order).
+    pub fn push(&mut self, body: &Shape) {
+        let (c, r) = (body.center(), body.bounding_radius());
+        debug_assert!((0..3).all(|k| c[k] >= self.min[k] && c[k] < self.min[k] + self.len[k]));
+        self.balls.push([c.x, c.y, c.z, r]);
+        self.max_radius = self.max_radius.max(r);
+    }
+
+    /// Whether `hit(j, offset)` holds for some registered body `j` and lattice vector
+    /// `offset` whose image's bounding sphere meets the probe's; tries the bodies in
+    /// order, each image once, and stops at the first hit.
+    pub fn any_image(&self, probe: &Shape, mut hit: impl FnMut(usize, Vec3) -> bool) -> bool {
+        let (c, rq) = (probe.center(), probe.bounding_radius());
+        debug_assert!((0..3).all(|k| c[k] >= self.min[k] && c[k] < self.min[k] + self.len[k]));
+        let len = self.len;
+        let inv = len.map(|l| 1.0 / l);
+        let one_image = 2.0 * (rq + self.max_radius) <= len.min();
+        for (j, &[x, y, z, r]) in self.balls.iter().enumerate() {
+            // Minimum image per axis, `n_k = round(d_k / L_k) ∈ {−1, 0, 1}`, without a
+            // branch (the sign of a separation is a coin flip, so branches mispredict):
+            // `d_k / L_k + 1.5 ∈ (0.5, 2.5)`, whose truncation is its floor.
+            let mut d = Vec3::new(x - c.x, y - c.y, z - c.z);
+            let n = Vec3::from_fn(|k, _| ((d[k] * inv[k] + 1.5) as i64 - 1) as f64);
+            let t = -n.component_mul(&len);
+            d += t;
+            let reach = rq + r;
+            if one_image {
+                if d.norm_squared() < reach * reach && hit(j, t) {
+                    return true;
+                }
+                continue;
+            }
+            let mut found = false;
+            super::for_each_lattice_vector(&len, &d, reach, |s| {
+                found = found || hit(j, t + s);
+            });
+            if found {
+                return true;
+            }
+        }
+        false
+    }
+}
+
 /// Radius of the largest ball about the centre inside the body: `r_s`, or `min(r_c, h)`.
 fn inscribed_radius(shape: &Shape) -> f64 {
     match shape {
@@ -392,20 +499,27 @@ fn inscribed_radius(shape: &Shape) -> f64 {
     }
 }
 
-/// Distance from `x` to the body (zero inside): `max(‖x − p‖ − r_s, 0)` for a sphere;
-/// for a cylinder, with `X` the axial coordinate and `L` the distance from the axis,
-/// `‖(max(|X| − h, 0), max(L − r_c, 0))‖`.
-fn distance_to(body: &Shape, x: &Vec3) -> f64 {
-    match body {
-        Shape::Sphere(s) => ((x - s.center).norm() - s.radius).max(0.0),
-        Shape::Cylinder(c) => {
-            let h = c.half_length();
-            let w = x - c.center;
-            let axial = w.dot(&c.half_axis) / h;
-            let radial = (w - c.half_axis * (axial / h)).norm();
-            let (dx, dr) = ((axial.abs() - h).max(0.0), (radial - c.radius).max(0.0));
-            (dx * dx + dr * dr).sqrt()
-        }
+/// The test `dist(x, body) < limit` (distance zero inside), with the body's constants
+/// computed once: `‖x − p‖ < r_s + limit` for a sphere; for a cylinder, with `X` the
+/// axial coordinate and `L` the distance from the axis,
+/// `max(|X| − h, 0)² + max(L − r_c, 0)² < limit²`.
+fn closer_than(body: &Shape, limit: f64) -> impl Fn(&Vec3) -> bool {
+    let (center, half_axis, radius) = match body {
+        Shape::Sphere(s) => (s.center, Vec3::zeros(), s.radius),
+        Shape::Cylinder(c) => (c.center, c.half_axis, c.radius),
+    };
+    let h = half_axis.norm();
+    let u = if h > 0.0 {
+        half_axis / h
+    } else {
+        Vec3::zeros()
+    };
+    move |x: &Vec3| {
+        let w = x - center;
+        let axial = w.dot(&u);
+        let radial = (w - u * axial).norm();
+        let (dx, dr) = ((axial.abs() - h).max(0.0), (radial - radius).max(0.0));
+        dx * dx + dr * dr < limit * limit
     }
 }
 
@@ -458,10 +572,13 @@ impl ExclusionMap {
             return;
         }
         let (slot, live) = (&mut self.slot, &mut self.live);
-        // dist(x, B) < limit implies dist(x, axis) < radius + limit.
+        let near = closer_than(body, limit);
+        // dist(x, B) < limit implies dist(x, axis) < radius + limit: the reach passed
+        // leaves out the half diagonal that the tiling adds.
+        let reach = radius + limit - self.tiling.half_diagonal;
         self.tiling
-            .cells_near_segment(&body.center(), &half_axis, radius + limit, |v, _, x| {
-                if slot[v] != u32::MAX && distance_to(body, x) < limit {
+            .cells_near_segment(&body.center(), &half_axis, reach, |v, _, x| {
+                if slot[v] != u32::MAX && near(x) {
                     let at = slot[v] as usize;
                     let last = *live.last().expect("a live voxel is listed");
                     live.swap_remove(at);
@@ -498,14 +615,38 @@ impl ExclusionMap {
 /// [`ExclusionMap`] (building one costs about as much as this many candidates).
 const EXCLUSION_MAP_AFTER: u64 = 2000;
 
-/// Consecutive rejections of one body after which the [`CapsuleGrid`] is rebuilt with
-/// [`FINE_CELLS_PER_AXIS`] (re-registering the bodies costs about this many candidates).
+/// Consecutive rejections of one body after which the [`ImageScan`] gives way to a
+/// [`CapsuleGrid`] of [`FINE_CELLS_PER_AXIS`] (registering the bodies costs about this many
+/// candidates).
 const FINE_GRID_AFTER: u64 = 256;
 
-/// Cap on the cells per axis of the [`CapsuleGrid`] once candidates are often rejected
-/// (until then `max(3, ⌊(n/2)^{1/3}⌋)` for `n` bodies: few cells are cheap to register in, and
-/// at low density a candidate meets few bodies anyway).
+/// Cap on the cells per axis of the [`CapsuleGrid`] that replaces the [`ImageScan`] once
+/// candidates are often rejected.
 const FINE_CELLS_PER_AXIS: usize = 48;
+
+/// The candidate search of one start: [`ImageScan`] until some body has been rejected
+/// [`FINE_GRID_AFTER`] times in a row, then a [`CapsuleGrid`] of cells about one capsule
+/// radius wide.
+enum Search {
+    Scan(ImageScan),
+    Grid(CapsuleGrid),
+}
+
+impl Search {
+    fn insert(&mut self, j: usize, body: &Shape) {
+        match self {
+            Search::Scan(s) => s.push(body),
+            Search::Grid(g) => g.insert(j, body),
+        }
+    }
+
+    fn any_image(&mut self, probe: &Shape, hit: impl FnMut(usize, Vec3) -> bool) -> bool {
+        match self {
+            Search::Scan(s) => s.any_image(probe, hit),
+            Search::Grid(g) => g.any_image(probe, hit),
+        }
+    }
+}
 
 /// Places bodies of the given sizes, in this order, in `boundary` (Algorithm 5).
 pub fn rsa_mixture<R: Rng>(
@@ -528,9 +669,7 @@ pub fn rsa_mixture<R: Rng>(
     let mut starts = 0u32;
     let stop = loop {
         starts += 1;
-        let coarse = ((sizes.len() / 2) as f64).cbrt().floor().max(3.0) as usize;
-        let mut grid = CapsuleGrid::new(boundary, pad, coarse);
-        let mut fine = false;
+        let mut search = Search::Scan(ImageScan::new(boundary));
         let mut bodies: Vec<Shape> = Vec::with_capacity(sizes.len());
         let mut bounding: Vec<f64> = Vec::with_capacity(sizes.len());
         let mut stuck = None;
@@ -546,12 +685,12 @@ pub fn rsa_mixture<R: Rng>(
             // same with and without the map.
             let (mut rejections, mut attempts) = (0u64, 0.0f64);
             loop {
-                if !fine && rejections >= FINE_GRID_AFTER {
-                    fine = true;
-                    grid = CapsuleGrid::new(boundary, pad, FINE_CELLS_PER_AXIS);
+                if matches!(search, Search::Scan(_)) && rejections >= FINE_GRID_AFTER {
+                    let mut grid = CapsuleGrid::new(boundary, pad, FINE_CELLS_PER_AXIS);
                     for (j, b) in bodies.iter().enumerate() {
                         grid.insert(j, b);
                     }
+                    search = Search::Grid(grid);
                 }
                 if map.is_none() && rejections >= EXCLUSION_MAP_AFTER {
                     map = Some(ExclusionMap::new(boundary, inscribed, &bodies));
@@ -578,7 +717,7 @@ pub fn rsa_mixture<R: Rng>(
                 deferred.clear();
                 let reach = candidate.bounding_radius();
                 let free = !meets_own_image(boundary, &candidate)
-                    && !grid.any_image(&candidate, |j, offset| {
+                    && !search.any_image(&candidate, |j, offset| {
                         // Bounding spheres apart: no intersection (the cheapest exit).
                         let apart = reach + bounding[j];
                         if (bodies[j].center() + offset - center).norm_squared() >= apart * apart {
@@ -592,7 +731,7 @@ pub fn rsa_mixture<R: Rng>(
                     })
                     && !deferred.iter().any(|partner| overlaps(&candidate, partner));
                 if free {
-                    grid.insert(bodies.len(), &candidate);
+                    search.insert(bodies.len(), &candidate);
                     if let Some(m) = &mut map {
                         m.kill_near(&candidate);
                     }
@@ -633,6 +772,10 @@ pub fn rsa_mixture<R: Rng>(
                 }
                 if stop == RsaStop::Time || starts > limits.max_restarts {
                     break stop;
+                }
+                // Many short starts (each ending jammed) must not outlast the limit either.
+                if limits.time_limit.is_some_and(|t| start.elapsed() > t) {
+                    break RsaStop::Time;
                 }
             }
         }
@@ -678,4 +821,70 @@ pub fn rsa_mixture<R: Rng>(
         },
     }
     .into())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_xoshiro::Xoshiro256PlusPlus;
+
+    /// A dead voxel of the [`ExclusionMap`] holds no acceptable centre: every candidate
+    /// drawn in one, in any orientation, meets some periodic image of a placed body by the
+    /// exact tests. Random sparse and dense scenes (so the kills reach across faces, edges
+    /// and corners), points at random in the box, so also at the rim of the dead region.
+    #[test]
+    fn dead_voxels_hold_only_rejected_candidates() {
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(0x5eed_0e8c);
+        let boundary = PeriodicBox {
+            min: Vec3::new(-0.5, 0.0, 0.25),
+            len: Vec3::new(1.0, 1.2, 0.9),
+        };
+        let (mut dead, mut live) = (0usize, 0usize);
+        for scene in 0..12 {
+            let rc = [0.04, 0.06, 0.09][scene % 3];
+            let sizes = [
+                BodySize::Cylinder {
+                    radius: rc,
+                    half_length: [1.0, 3.0, 5.0][scene % 3] * rc,
+                },
+                BodySize::Sphere { radius: 1.3 * rc },
+            ];
+            let bodies: Vec<Shape> = (0..[8, 30][scene % 2])
+                .map(|i| {
+                    let c = boundary.min + boundary.len.map(|l| l * rng.gen::<f64>());
+                    sizes[i % 2].at(c, random_direction(&mut rng))
+                })
+                .collect();
+            let candidate = sizes[scene % 2];
+            let inscribed = inscribed_radius(&candidate.at(Vec3::zeros(), Vec3::z()));
+            let map = ExclusionMap::new(&boundary, inscribed, &bodies);
+            for _ in 0..2000 {
+                let x = boundary.min + boundary.len.map(|l| l * rng.gen::<f64>());
+                let (v, _) = map.tiling.wrapped(map.tiling.cell_of(&x));
+                if map.slot[v] != u32::MAX {
+                    live += 1;
+                    continue;
+                }
+                dead += 1;
+                for _ in 0..4 {
+                    let probe = candidate.at(x, random_direction(&mut rng));
+                    let rejected = bodies.iter().any(|b| {
+                        (0..27).any(|n| {
+                            let t = Vec3::new(
+                                (n % 3) as f64 - 1.0,
+                                ((n / 3) % 3) as f64 - 1.0,
+                                (n / 9) as f64 - 1.0,
+                            )
+                            .component_mul(&boundary.len);
+                            overlaps(&probe, &b.translated(t))
+                        })
+                    });
+                    assert!(rejected, "a candidate in a dead voxel is free: {probe:?}");
+                }
+            }
+        }
+        println!("dead {dead}, live {live}");
+        assert!(dead > 2000 && live > 2000);
+    }
 }
