@@ -1133,8 +1133,8 @@ struct NominalSizes {
 
 impl Scene {
     /// Ellipsoid-specific checks: a box container, and bounding spheres (the largest
-    /// semi-axis) that fit the box and stay below half a periodic edge up to the densest
-    /// fraction the stages can reach (minimum image).
+    /// semi-axis) that fit the box and stay below a periodic edge up to the densest fraction
+    /// the stages can reach.
     fn validate_ellipsoids(
         &self,
         e: &EllipsoidSpec,
@@ -1189,14 +1189,16 @@ impl Scene {
             }
         }
         let bounding_final = bounding * (final_phi / seeded_phi).cbrt();
-        if periodic_extent.is_finite() && 2.0 * bounding_final >= periodic_extent {
+        // The kernel tracks periodic images (several images of a partner, and a particle's own
+        // images) for ellipsoids longer than half the box, up to a bounding diameter of one
+        // periodic edge.
+        if periodic_extent.is_finite() && bounding_final >= periodic_extent {
             return Err(invalid(
                 "container.size",
                 format!(
-                    "a periodic box edge must exceed twice the largest bounding diameter the \
-                     ellipsoids can reach ({bounding_final:.4}) for the minimum-image \
-                     convention; give at least {:.4} or use more, smaller particles",
-                    2.0 * bounding_final
+                    "a periodic box edge must exceed the largest bounding diameter (longest \
+                     axis) the ellipsoids can reach ({bounding_final:.4}); give at least \
+                     {bounding_final:.4} or use more, smaller particles"
                 ),
             ));
         }
