@@ -17,7 +17,9 @@
 //! Ellipsoids (and spheres paired with them) are checked with the Perram–Wertheim contact
 //! function `F(λ) = λ(1−λ) dᵀ[(1−λ)M_i + λM_j]⁻¹d`, `M = R·diag(a², b², c²)·Rᵀ`, maximised over
 //! `λ ∈ [0, 1]` by golden-section search: `√max F` is the factor by which both must be scaled
-//! about their centres to touch, so a pair is accepted when it is at least `1 − tol`. This is
+//! about their centres to touch, so a pair is accepted when it is at least `1 − tol`. Every
+//! periodic image of a partner whose bounding sphere reaches the particle's is tested, and each
+//! ellipsoid against its own images (needles may be nearly as long as the box). This is
 //! a different method from the kernel's prediction (characteristic polynomial / certified
 //! separating-axis steps) and shares no code with it: the rotation matrix, the 3×3 inverse and
 //! the search are written here. An ellipsoid's distance to a box wall or a cylinder cap is the

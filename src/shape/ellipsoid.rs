@@ -706,7 +706,7 @@ pub fn ellipsoid_self_image_impulse(
     let u_after = (2.0 * growth - u).max(growth);
     let i_w = shape.inverse_inertia_times(&rot, mass, t, &w);
     let k = w.dot(&i_w);
-    if !(k > 0.0) {
+    if k.is_nan() || k <= 0.0 {
         // No lever (a needle exactly along the shift, tip on tip): rotation cannot part the
         // contact. Counted; the pair is re-predicted (and stalls if it stays jammed).
         count_failure();
