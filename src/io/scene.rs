@@ -68,7 +68,7 @@
 use crate::kernel::{KernelConfig, Limits, Stage, Until, MAX_SKIN};
 use crate::protocol::take_phase::{GradingSpec, TakeError, TakeParams, TakePhase};
 use crate::queue::QueueKind;
-use crate::shape::{Growth, MassRule, Predictor};
+use crate::shape::{Growth, MassRule, Predictor, CONTACT_TOLERANCE, MAX_CONTACT_TOLERANCE};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 
@@ -287,7 +287,18 @@ pub struct EllipsoidSpec {
     /// Collision predictor (default `"separating_axis"`).
     #[serde(default)]
     pub predictor: Predictor,
+    /// Gap relative to the smallest semi-axis below which an approach counts as a contact
+    /// (default [`CONTACT_TOLERANCE`], 10⁻¹²; allowed `[1e-15, MAX_CONTACT_TOLERANCE]`).
+    #[serde(default = "default_contact_tolerance")]
+    pub contact_tolerance: f64,
 }
+
+fn default_contact_tolerance() -> f64 {
+    CONTACT_TOLERANCE
+}
+
+/// Smallest contact tolerance a scene may set (rounding of the gap itself is ~10⁻¹⁶).
+pub const MIN_CONTACT_TOLERANCE: f64 = 1e-15;
 
 /// Largest ellipsoid packing fraction known (Donev et al. 2004, crystal of ellipsoids,
 /// 0.7707): no ellipsoid scene can grow past it.
@@ -327,6 +338,16 @@ impl EllipsoidSpec {
 
     fn validate(&self) -> Result<(), SceneError> {
         let field = "particles.ellipsoid";
+        let tol = self.contact_tolerance;
+        if !(MIN_CONTACT_TOLERANCE..=MAX_CONTACT_TOLERANCE).contains(&tol) {
+            return Err(invalid(
+                format!("{field}.contact_tolerance"),
+                format!(
+                    "= {tol} is outside the allowed range [{MIN_CONTACT_TOLERANCE:e}, \
+                     {MAX_CONTACT_TOLERANCE:e}]"
+                ),
+            ));
+        }
         match (self.aspect_ratios, self.aspect_ratio_ranges) {
             (Some(r), None) => {
                 for (k, x) in r.iter().enumerate() {

@@ -24,7 +24,8 @@
 //!    `K` a bound of `|h_a''| + |h_b''|` from the angular velocities, growth and aspect ratios
 //!    ([`support_curvature_bound`]); the first root of that quadratic is the step: no contact
 //!    can occur inside it (translation is exact; rotation and growth enter through `K`);
-//! 4. repeat until the gap is below [`CONTACT_TOLERANCE`] times the smallest semi-axis
+//! 4. repeat until the gap is below [`Ellipsoid::contact_tolerance`] (default
+//!    [`CONTACT_TOLERANCE`]) times the smallest semi-axis
 //!    (contact) or the time leaves the window.
 //!
 //! The steps shrink like Newton steps near a contact (the separating axis converges to the
@@ -53,9 +54,22 @@ use rand_distr::StandardNormal;
 use std::cell::Cell;
 use std::f64::consts::PI;
 
-/// Gap below which two ellipsoids (or an ellipsoid and a wall) count as touching, relative to
-/// the smallest semi-axis involved.
+/// Default gap below which two ellipsoids (or an ellipsoid and a wall) count as touching,
+/// relative to the smallest semi-axis involved (the scene key
+/// `particles.ellipsoid.contact_tolerance`; chosen from the sweep in BENCHMARKS.md).
 pub const CONTACT_TOLERANCE: f64 = 1e-12;
+
+/// Largest contact tolerance a scene may set: a contact is resolved while its gap is below
+/// `max(10⁻⁶, 10·tolerance)` of the smallest semi-axis, so looser tolerances would blur
+/// early (failed) predictions with contacts.
+pub const MAX_CONTACT_TOLERANCE: f64 = 1e-5;
+
+/// Gap (relative to the smallest semi-axis) up to which an impulse treats a pair as touching
+/// for predictions made with `tolerance`.
+#[inline]
+fn resolved_gap(tolerance: f64) -> f64 {
+    (10.0 * tolerance).max(1e-6)
+}
 
 /// Most certified steps of one prediction before it is counted as a numerical failure.
 pub const MAX_STEPS: u32 = 500;
@@ -103,6 +117,9 @@ pub struct Ellipsoid {
     pub g: f64,
     /// Collision predictor.
     pub predictor: Predictor,
+    /// Gap, relative to the smallest semi-axis, below which a predicted approach counts as a
+    /// contact ([`CONTACT_TOLERANCE`] by default; at most [`MAX_CONTACT_TOLERANCE`]).
+    pub contact_tolerance: f64,
 }
 
 /// Orientation and angular velocity of an ellipsoid (serialised bit for bit in checkpoints).
@@ -147,6 +164,7 @@ impl Ellipsoid {
             s0: s,
             g: 0.0,
             predictor: Predictor::SeparatingAxis,
+            contact_tolerance: CONTACT_TOLERANCE,
         }
     }
 
@@ -499,7 +517,8 @@ pub fn predict_ellipsoid_pair(
         t,
     };
     let curvature = motion.curvature_bound(max_tau);
-    let tolerance = CONTACT_TOLERANCE * a.min_semi_axis(t).min(b.min_semi_axis(t));
+    let relative = a.contact_tolerance.max(b.contact_tolerance);
+    let tolerance = relative * a.min_semi_axis(t).min(b.min_semi_axis(t));
     let switch = 1e-3 * a.min_semi_axis(t).min(b.min_semi_axis(t));
     let mut tau = start;
     let mut lambda = 0.5;
@@ -644,7 +663,7 @@ pub fn ellipsoid_pair_impulse(
         return Vec3::zeros();
     };
     let scale = a.min_semi_axis(t).min(b.min_semi_axis(t));
-    if contact.gap > 1e-6 * scale {
+    if contact.gap > resolved_gap(a.contact_tolerance.max(b.contact_tolerance)) * scale {
         // An early event (failed prediction): not in contact, nothing to resolve.
         return Vec3::zeros();
     }
@@ -695,7 +714,7 @@ pub fn ellipsoid_self_image_impulse(
         count_failure();
         return Vec3::zeros();
     };
-    if contact.gap > 1e-6 * shape.min_semi_axis(t) {
+    if contact.gap > resolved_gap(shape.contact_tolerance) * shape.min_semi_axis(t) {
         return Vec3::zeros(); // an early event: not in contact
     }
     let n = -contact.normal;
@@ -862,7 +881,7 @@ impl Collidable for Ellipsoid {
         }
         let curvature =
             support_curvature_bound(self, spin.omega.norm(), self.scale_at(t + max_tau));
-        let tolerance = CONTACT_TOLERANCE * self.min_semi_axis(t);
+        let tolerance = self.contact_tolerance * self.min_semi_axis(t);
         let mut tau = start;
         for _ in 0..MAX_STEPS {
             let pose = Pose::of(self, spin, tau, t + tau);

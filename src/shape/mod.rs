@@ -17,7 +17,7 @@ mod sphere;
 pub use ellipsoid::{
     contact_point_and_normal, ellipsoid_pair_impulse, ellipsoid_self_image_impulse,
     predict_ellipsoid_pair, prediction_failures, support_curvature_bound, Ellipsoid, Predictor,
-    Spin, CONTACT_TOLERANCE, MAX_STEPS,
+    Spin, CONTACT_TOLERANCE, MAX_CONTACT_TOLERANCE, MAX_STEPS,
 };
 pub use sphere::{predict_sphere_sphere, Sphere};
 
