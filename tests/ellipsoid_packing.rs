@@ -255,6 +255,10 @@ fn bad_ellipsoid_scenes_name_the_field() {
         field("aspect_ratios = [10.0, 10.0]", base),
         "container.size"
     );
+    assert_eq!(
+        field("aspect_ratios = [2.0, 2.0]\ncontact_tolerance = 0.1", base),
+        "particles.ellipsoid.contact_tolerance"
+    );
     let cylinder = "seed = 1\n[container]\ntype = \"cylinder\"\nradius = 5.0\nheight = 10.0\n\
                     [particles]\ncount = 10\ndiameter = 1.0\npacking_fraction = 0.01";
     assert_eq!(
