@@ -35,6 +35,11 @@
 //! down to the smallest sphere), so wide size distributions stay cheap; the skin adapts at
 //! barriers ([`Edmd::skin`]).
 //!
+//! Shapes that may grow longer than half the box ([`Collidable::PERIODIC_IMAGES`]) switch to
+//! image-aware lists at the barrier where the list spheres reach half the shortest periodic
+//! edge: entries then name a partner *and* its periodic image, including the particle's own
+//! images ([`images`]).
+//!
 //! Invalidation never scans the queue: a particle's own events go with its local list, and
 //! events of others that name it are recognised as stale by the counter.
 //!
