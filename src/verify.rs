@@ -396,9 +396,12 @@ fn check_ellipsoids(
     }
     if scale.is_nan() || scale < 1.0 - TOLERANCE {
         let whom = if i == j {
-            format!("particle {i} and its own periodic image at {d:?}")
+            format!(
+                "particle {i} and its own periodic image at {:?}",
+                [d.x, d.y, d.z]
+            )
         } else {
-            format!("particles {i} and {j} (image at {d:?})")
+            format!("particles {i} and {j} (image at {:?})", [d.x, d.y, d.z])
         };
         out.violate(format!(
             "{whom} overlap: they touch only when scaled by {scale} (Perram–Wertheim)"
