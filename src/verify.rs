@@ -17,7 +17,9 @@
 //! Ellipsoids (and spheres paired with them) are checked with the Perram–Wertheim contact
 //! function `F(λ) = λ(1−λ) dᵀ[(1−λ)M_i + λM_j]⁻¹d`, `M = R·diag(a², b², c²)·Rᵀ`, maximised over
 //! `λ ∈ [0, 1]` by golden-section search: `√max F` is the factor by which both must be scaled
-//! about their centres to touch, so a pair is accepted when it is at least `1 − tol`. This is
+//! about their centres to touch, so a pair is accepted when it is at least `1 − tol`. Every
+//! periodic image of a partner whose bounding sphere reaches the particle's is tested, and each
+//! ellipsoid against its own images (needles may be nearly as long as the box). This is
 //! a different method from the kernel's prediction (characteristic polynomial / certified
 //! separating-axis steps) and shares no code with it: the rotation matrix, the 3×3 inverse and
 //! the search are written here. An ellipsoid's distance to a box wall or a cylinder cap is the
@@ -277,6 +279,20 @@ pub fn verify(packing: &Packing) -> Verification {
             vec![-1, 0, 1]
         }
     });
+    // An ellipsoid against its own images (each pair of opposite shifts once): a needle
+    // longer than the box edge along its axis overlaps itself.
+    for (i, (b, o)) in balls.iter().zip(&oriented).enumerate() {
+        let Some(e) = o else { continue };
+        for t in lattice_shifts(&Vector3::zeros(), 2.0 * b.r, &len, periodic) {
+            if t.iter()
+                .copied()
+                .find(|v| *v != 0.0)
+                .is_some_and(|v| v > 0.0)
+            {
+                check_ellipsoids(&mut out, i, i, &e.m, &e.m, &t);
+            }
+        }
+    }
     for (i, bi) in balls.iter().enumerate() {
         let ki = key(&bi.c);
         let mut seen: Vec<[i64; 3]> = Vec::with_capacity(27);
@@ -323,23 +339,14 @@ pub fn verify(packing: &Packing) -> Verification {
                             d2 += d * d;
                         }
                         if oriented[i].is_some() || oriented[j].is_some() {
-                            if d2 >= (bi.r + bj.r).powi(2) {
-                                continue; // bounding spheres apart
-                            }
-                            let scale = contact_scale(
-                                &shape_matrix_of(oriented[i].as_deref(), bi.r),
-                                &shape_matrix_of(oriented[j].as_deref(), bj.r),
-                                &dv,
-                            );
-                            let rel = scale - 1.0;
-                            if out.min_pair_gap_relative.is_none_or(|m| rel < m) {
-                                out.min_pair_gap_relative = Some(rel);
-                            }
-                            if scale.is_nan() || scale < 1.0 - TOLERANCE {
-                                out.violate(format!(
-                                    "particles {i} and {j} overlap: they touch only when \
-                                         scaled by {scale} (Perram–Wertheim)"
-                                ));
+                            // Every periodic image whose bounding sphere reaches `i`'s (a
+                            // needle as long as the box meets several images of a partner).
+                            let d = Vector3::from(dv);
+                            let mi = shape_matrix_of(oriented[i].as_deref(), bi.r);
+                            let mj = shape_matrix_of(oriented[j].as_deref(), bj.r);
+                            for t in lattice_shifts(&d, bi.r + bj.r, &len, periodic) {
+                                let image = d + t;
+                                check_ellipsoids(&mut out, i, j, &mi, &mj, &image);
                             }
                             continue;
                         }
@@ -370,6 +377,67 @@ pub fn verify(packing: &Packing) -> Verification {
         }
     }
     out
+}
+
+/// Records the Perram–Wertheim check of ellipsoids (or spheres) `i` and `j` with shape matrices
+/// `mi`, `mj` whose centres are `d` apart (`j`'s image as given).
+fn check_ellipsoids(
+    out: &mut Verification,
+    i: usize,
+    j: usize,
+    mi: &[[f64; 3]; 3],
+    mj: &[[f64; 3]; 3],
+    d: &Vector3<f64>,
+) {
+    let scale = contact_scale(mi, mj, &[d.x, d.y, d.z]);
+    let rel = scale - 1.0;
+    if out.min_pair_gap_relative.is_none_or(|m| rel < m) {
+        out.min_pair_gap_relative = Some(rel);
+    }
+    if scale.is_nan() || scale < 1.0 - TOLERANCE {
+        let whom = if i == j {
+            format!(
+                "particle {i} and its own periodic image at {:?}",
+                [d.x, d.y, d.z]
+            )
+        } else {
+            format!("particles {i} and {j} (image at {:?})", [d.x, d.y, d.z])
+        };
+        out.violate(format!(
+            "{whom} overlap: they touch only when scaled by {scale} (Perram–Wertheim)"
+        ));
+    }
+}
+
+/// Lattice translations `t` (along the periodic axes of edges `len`) with `|d + t| < reach`,
+/// for a separation `d` that is a minimum image on the periodic axes (`|d_k| ≤ L_k/2`).
+fn lattice_shifts(
+    d: &Vector3<f64>,
+    reach: f64,
+    len: &[f64; 3],
+    periodic: [bool; 3],
+) -> Vec<Vector3<f64>> {
+    let m: Vec<i64> = (0..3)
+        .map(|k| {
+            if periodic[k] {
+                (reach / len[k] + 0.5).floor() as i64
+            } else {
+                0
+            }
+        })
+        .collect();
+    let mut all = Vec::new();
+    for nx in -m[0]..=m[0] {
+        for ny in -m[1]..=m[1] {
+            for nz in -m[2]..=m[2] {
+                let t = Vector3::new(nx as f64 * len[0], ny as f64 * len[1], nz as f64 * len[2]);
+                if (d + t).norm() < reach {
+                    all.push(t);
+                }
+            }
+        }
+    }
+    all
 }
 
 /// A convex body as the independent check sees it.
@@ -654,24 +722,8 @@ pub fn verify_convex(packing: &Packing) -> Verification {
                 "particles {i} and {j}: separation could not be certified"
             )),
         };
-    // Lattice shifts t with |d + t| < reach, d a minimum-image separation.
-    let shifts = |d: &Vector3<f64>, reach: f64| -> Vec<Vector3<f64>> {
-        let m: Vec<i64> = (0..3)
-            .map(|k| (reach / len[k] + 0.5).floor() as i64)
-            .collect();
-        let mut all = Vec::new();
-        for nx in -m[0]..=m[0] {
-            for ny in -m[1]..=m[1] {
-                for nz in -m[2]..=m[2] {
-                    let t = Vector3::new(nx as f64 * len.x, ny as f64 * len.y, nz as f64 * len.z);
-                    if (d + t).norm() < reach {
-                        all.push(t);
-                    }
-                }
-            }
-        }
-        all
-    };
+    let edges = [len.x, len.y, len.z];
+    let shifts = |d: &Vector3<f64>, reach: f64| lattice_shifts(d, reach, &edges, [true; 3]);
     for (x, (i, a)) in bodies.iter().enumerate() {
         // A body against its own images (each ±t pair once).
         for t in shifts(&Vector3::zeros(), 2.0 * a.bound()) {
@@ -793,4 +845,62 @@ pub fn contact_scale(mi: &[[f64; 3]; 3], mj: &[[f64; 3]; 3], d: &[f64; 3]) -> f6
         }
     }
     f1.max(f2).max(0.0).sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A needle of semi-axes `a : 0.05 : 0.05` at `centre`, its long axis at `degrees` to x
+    /// in the x-y plane.
+    fn needle(centre: [f64; 3], a: f64, degrees: f64) -> ParticleRecord {
+        let half = 0.5 * degrees.to_radians();
+        ParticleRecord::Ellipsoid {
+            center: centre,
+            semi_axes: [a, 0.05, 0.05],
+            orientation: [half.cos(), 0.0, 0.0, half.sin()],
+        }
+    }
+
+    fn periodic_box(len: [f64; 3]) -> ContainerRecord {
+        ContainerRecord::Box {
+            min: [0.0; 3],
+            max: len,
+            periodic: [true; 3],
+        }
+    }
+
+    #[test]
+    fn an_overlap_through_a_non_minimum_image_is_caught() {
+        // Two needles at 10° in a cube of edge 4: the image of the second shifted by +4 in x
+        // lies on the first's axis 2.2 away (tips overlap once a > 1.1); the minimum image is
+        // a parallel needle 0.69 off the axis.
+        let u = [10f64.to_radians().cos(), 10f64.to_radians().sin()];
+        let a = [0.5, 1.5, 2.0];
+        // `a + 2.2 u − 4x`, wrapped into the box.
+        let b = [a[0] + 2.2 * u[0], a[1] + 2.2 * u[1], 2.0];
+        for (semi_axis, overlaps) in [(1.12, true), (1.08, false)] {
+            let packing = Packing::new(
+                periodic_box([4.0; 3]),
+                vec![needle(a, semi_axis, 10.0), needle(b, semi_axis, 10.0)],
+            );
+            let v = verify(&packing);
+            assert_eq!(!v.ok(), overlaps, "a = {semi_axis}: {:?}", v.violations);
+        }
+    }
+
+    #[test]
+    fn a_needle_longer_than_the_box_edge_overlaps_its_own_image() {
+        for (semi_axis, overlaps) in [(1.02, true), (0.98, false)] {
+            let packing = Packing::new(
+                periodic_box([2.0, 3.0, 3.0]),
+                vec![needle([1.0, 1.5, 1.5], semi_axis, 0.0)],
+            );
+            let v = verify(&packing);
+            assert_eq!(!v.ok(), overlaps, "a = {semi_axis}: {:?}", v.violations);
+            if overlaps {
+                assert!(v.violations[0].contains("its own periodic image"));
+            }
+        }
+    }
 }

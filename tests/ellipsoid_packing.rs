@@ -252,10 +252,14 @@ fn bad_ellipsoid_scenes_name_the_field() {
         ),
         "particles.ellipsoid"
     );
-    // Needles of aspect ratio 10 grown to φ = 0.2 in this box would break the minimum image.
+    // Needles of aspect ratio 10 grown to φ = 0.2 in this box would be longer than its edge.
     assert_eq!(
         field("aspect_ratios = [10.0, 10.0]", base),
         "container.size"
+    );
+    assert_eq!(
+        field("aspect_ratios = [2.0, 2.0]\ncontact_tolerance = 0.1", base),
+        "particles.ellipsoid.contact_tolerance"
     );
     let cylinder = "seed = 1\n[container]\ntype = \"cylinder\"\nradius = 5.0\nheight = 10.0\n\
                     [particles]\ncount = 10\ndiameter = 1.0\npacking_fraction = 0.01";
@@ -268,4 +272,35 @@ fn bad_ellipsoid_scenes_name_the_field() {
         Scene::from_toml(&scene(base, "aspect_ratio = [2.0, 2.0]", stage)),
         Err(SceneError::Parse(_))
     ));
+}
+
+/// Paper 004, Table 2, prolate R1 = R2 = 10 at the paper's N = 90 to φ = 0.30: the needles grow
+/// longer than half the box edge (the kernel tracks periodic images), and the packing has no
+/// overlap by the independent check, which tests every image and self-image.
+#[test]
+fn needles_longer_than_half_the_box_pack_without_overlap() {
+    let out = run_toml(include_str!(
+        "../examples/scenes/ellipsoids_prolate_r10_n90.toml"
+    ));
+    assert_eq!(out.packing.particles.len(), 90);
+    assert!((out.packing.stats.packing_fraction - 0.30).abs() < 1e-9);
+    let densepack::io::packing::ContainerRecord::Box { min, max, .. } = &out.packing.container
+    else {
+        panic!("a box scene");
+    };
+    let edge = max[0] - min[0];
+    let longest = out
+        .packing
+        .particles
+        .iter()
+        .map(|p| match p {
+            ParticleRecord::Ellipsoid { semi_axes, .. } => 2.0 * semi_axes[0],
+            _ => unreachable!(),
+        })
+        .fold(0.0, f64::max);
+    assert!(
+        longest > 0.5 * edge && longest < edge,
+        "bounding diameter {longest} of edge {edge}"
+    );
+    assert_valid(&out.packing);
 }

@@ -782,8 +782,9 @@ fn grow_towards_jamming(z: f64, cap: Option<f64>, events: u64) -> Stage {
 /// (oblate, 1 : 1 : 1/50) — grown from a dilute random start towards jamming, in walled and
 /// in periodic cubes, checked by the independent Perram–Wertheim test at every barrier.
 /// Walled boxes have no minimum-image limit: the needles grow longer than half the box and
-/// jam against each other and the walls. In a periodic box the bounding sphere must stay
-/// shorter than a quarter of the edge (two particles must not meet twice), which caps the
+/// jam against each other and the walls. In a periodic box this test keeps the bounding sphere
+/// shorter than a quarter of the edge (minimum image holds; needles nearly as long as the box,
+/// where the kernel tracks periodic images, are the Table 2 scenes of paper 004), which caps the
 /// packing fraction at `n·V(a = L/4)/L³`: for needles that cap is far below their jamming
 /// density (φ_J ≈ 5.4/α ≈ 0.1 for rods, Philipse 1996; it would take ~5000 needles), so
 /// periodic needles test dilute, fast-rotating collisions only; for platelets the cap is

@@ -71,7 +71,7 @@
 use crate::kernel::{KernelConfig, Limits, Stage, Until, MAX_SKIN};
 use crate::protocol::take_phase::{GradingSpec, TakeError, TakeParams, TakePhase};
 use crate::queue::QueueKind;
-use crate::shape::{Growth, MassRule, Predictor};
+use crate::shape::{Growth, MassRule, Predictor, CONTACT_TOLERANCE, MAX_CONTACT_TOLERANCE};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 
@@ -290,7 +290,18 @@ pub struct EllipsoidSpec {
     /// Collision predictor (default `"separating_axis"`).
     #[serde(default)]
     pub predictor: Predictor,
+    /// Gap relative to the smallest semi-axis below which an approach counts as a contact
+    /// (default [`CONTACT_TOLERANCE`], 10⁻¹²; allowed `[1e-15, MAX_CONTACT_TOLERANCE]`).
+    #[serde(default = "default_contact_tolerance")]
+    pub contact_tolerance: f64,
 }
+
+fn default_contact_tolerance() -> f64 {
+    CONTACT_TOLERANCE
+}
+
+/// Smallest contact tolerance a scene may set (rounding of the gap itself is ~10⁻¹⁶).
+pub const MIN_CONTACT_TOLERANCE: f64 = 1e-15;
 
 /// Largest ellipsoid packing fraction known (Donev et al. 2004, crystal of ellipsoids,
 /// 0.7707): no ellipsoid scene can grow past it.
@@ -330,6 +341,16 @@ impl EllipsoidSpec {
 
     fn validate(&self) -> Result<(), SceneError> {
         let field = "particles.ellipsoid";
+        let tol = self.contact_tolerance;
+        if !(MIN_CONTACT_TOLERANCE..=MAX_CONTACT_TOLERANCE).contains(&tol) {
+            return Err(invalid(
+                format!("{field}.contact_tolerance"),
+                format!(
+                    "= {tol} is outside the allowed range [{MIN_CONTACT_TOLERANCE:e}, \
+                     {MAX_CONTACT_TOLERANCE:e}]"
+                ),
+            ));
+        }
         match (self.aspect_ratios, self.aspect_ratio_ranges) {
             (Some(r), None) => {
                 for (k, x) in r.iter().enumerate() {
@@ -1169,8 +1190,8 @@ struct NominalSizes {
 
 impl Scene {
     /// Ellipsoid-specific checks: a box container, and bounding spheres (the largest
-    /// semi-axis) that fit the box and stay below half a periodic edge up to the densest
-    /// fraction the stages can reach (minimum image).
+    /// semi-axis) that fit the box and stay below a periodic edge up to the densest fraction
+    /// the stages can reach.
     fn validate_ellipsoids(
         &self,
         e: &EllipsoidSpec,
@@ -1225,14 +1246,16 @@ impl Scene {
             }
         }
         let bounding_final = bounding * (final_phi / seeded_phi).cbrt();
-        if periodic_extent.is_finite() && 2.0 * bounding_final >= periodic_extent {
+        // The kernel tracks periodic images (several images of a partner, and a particle's own
+        // images) for ellipsoids longer than half the box, up to a bounding diameter of one
+        // periodic edge.
+        if periodic_extent.is_finite() && bounding_final >= periodic_extent {
             return Err(invalid(
                 "container.size",
                 format!(
-                    "a periodic box edge must exceed twice the largest bounding diameter the \
-                     ellipsoids can reach ({bounding_final:.4}) for the minimum-image \
-                     convention; give at least {:.4} or use more, smaller particles",
-                    2.0 * bounding_final
+                    "a periodic box edge must exceed the largest bounding diameter (longest \
+                     axis) the ellipsoids can reach ({bounding_final:.4}); give at least \
+                     {bounding_final:.4} or use more, smaller particles"
                 ),
             ));
         }

@@ -46,6 +46,8 @@ pub struct KernelSnapshot<'a, S: Collidable> {
     updates_at_sort: u64,
     skin: f64,
     mean_radius: f64,
+    /// Whether the neighbour entries carry periodic image shifts.
+    images: bool,
 }
 
 /// A snapshot that cannot be the state of a kernel.
@@ -83,6 +85,7 @@ where
             updates_at_sort: self.updates_at_sort,
             skin: self.skin,
             mean_radius: self.mean_radius,
+            images: self.images,
         }
     }
 }
@@ -124,12 +127,14 @@ where
                 }
             }
         }
-        if snapshot
-            .neighbours
-            .iter()
-            .flatten()
-            .any(|&j| j as usize >= n)
-        {
+        if snapshot.neighbours.iter().flatten().any(|&j| {
+            let index = if snapshot.images {
+                super::images::index(j)
+            } else {
+                j as usize
+            };
+            index >= n
+        }) {
             return Err(SnapshotError("a neighbour index is out of range".into()));
         }
         if snapshot.particles.iter().any(|p| p.time != 0.0) {
@@ -164,6 +169,7 @@ where
             // Set by the stage the kernel continues (`Edmd::continue_stage`).
             wall_growth: 1.0,
             stage_clock: 0.0,
+            images: snapshot.images,
         })
     }
 }

@@ -35,6 +35,11 @@
 //! down to the smallest sphere), so wide size distributions stay cheap; the skin adapts at
 //! barriers ([`Edmd::skin`]).
 //!
+//! Shapes that may grow longer than half the box ([`Collidable::PERIODIC_IMAGES`]) switch to
+//! image-aware lists at the barrier where the list spheres reach half the shortest periodic
+//! edge: entries then name a partner *and* its periodic image, including the particle's own
+//! images ([`images`]).
+//!
 //! Invalidation never scans the queue: a particle's own events go with its local list, and
 //! events of others that name it are recognised as stale by the counter.
 //!
@@ -55,6 +60,7 @@
 //! spheres, `r` for a sphere against a wall: then `Z` is the wall pressure).
 
 mod checkpoint;
+mod images;
 mod local;
 mod stage;
 
@@ -251,6 +257,10 @@ pub struct Edmd<S: Collidable, B: Boundary, Q: EventQueue> {
     wall_growth: f64,
     /// Simulated time of the running stage at kernel time 0 (the last barrier).
     stage_clock: f64,
+    /// Whether neighbour-list entries and collision partners carry periodic image shifts
+    /// ([`images`]); switched on for good at a barrier once list spheres can reach half the
+    /// shortest periodic edge, and only for shapes with [`Collidable::PERIODIC_IMAGES`].
+    images: bool,
 }
 
 impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
@@ -358,6 +368,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             mean_radius: 0.0,
             wall_growth: 1.0,
             stage_clock: 0.0,
+            images: false,
         };
         kernel.rescale_temperature();
         kernel.update_mean_radius();
@@ -365,7 +376,9 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             let r = kernel.particles[i].shape.bounding_radius(0.0);
             kernel.list_radius[i] = kernel.list_radius_for(r);
         }
-        kernel.rebuild_grid(kernel.needed_cell_width(0.0));
+        let width = kernel.needed_cell_width(0.0);
+        kernel.rebuild_grid(width);
+        kernel.images = kernel.needs_images(width);
         kernel.build_all_neighbour_lists();
         kernel
     }
@@ -588,9 +601,14 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         permute_in_place(truncated, &order, &mut visited);
         let mut neighbours = std::mem::take(&mut self.neighbours);
         permute_in_place(&mut neighbours, &order, &mut visited);
+        let tracks_images = self.tracks_images();
         for list in &mut neighbours {
             for j in list.iter_mut() {
-                *j = new_index[*j as usize];
+                *j = if tracks_images {
+                    images::encode(new_index[images::index(*j)] as usize, images::shift(*j))
+                } else {
+                    new_index[*j as usize]
+                };
             }
         }
         self.neighbours = neighbours;
@@ -637,6 +655,14 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let mut candidates = std::mem::take(&mut self.scratch);
         for i in 0..self.particles.len() {
             self.list_candidates(i, &mut candidates);
+            if self.tracks_images() {
+                let mut own = std::mem::take(&mut self.neighbours[i]);
+                for &j in candidates.iter().filter(|&&j| j as usize >= i) {
+                    self.link_images(i, j as usize, &mut own);
+                }
+                self.neighbours[i] = own;
+                continue;
+            }
             for &j in &candidates {
                 let j = j as usize;
                 if j > i && self.lists_overlap(i, j) {
@@ -656,6 +682,11 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.boundary.wrap(&mut self.particles[i].pos);
         let old = std::mem::take(&mut self.neighbours[i]);
         for &j in &old {
+            if self.tracks_images() {
+                // Every image of `i` leaves `j`'s list (`j` may be listed once per image).
+                self.neighbours[images::index(j)].retain(|x| images::index(*x) != i);
+                continue;
+            }
             let list = &mut self.neighbours[j as usize];
             if let Some(k) = list.iter().position(|&x| x as usize == i) {
                 list.swap_remove(k);
@@ -672,7 +703,9 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.list_candidates(i, &mut candidates);
         for &j in &candidates {
             let j = j as usize;
-            if j != i && self.lists_overlap(i, j) {
+            if self.tracks_images() {
+                self.link_images(i, j, &mut new);
+            } else if j != i && self.lists_overlap(i, j) {
                 new.push(j as u32);
                 self.neighbours[j].push(i as u32);
             }
@@ -710,6 +743,10 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             // (cheap next to the ~N events of an interval; keeps neighbours in cache).
             self.rebuild_grid(self.grid.min_width());
         }
+        if self.needs_images(needed) {
+            self.images = true;
+            self.build_all_neighbour_lists();
+        }
         self.queue.reset(0.0, interval, n);
         self.local.clear_all();
         for i in 0..n {
@@ -740,13 +777,14 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             Partners::Above => (i, i + 1),
         };
         let mut list = self.local.get(i);
-        for j in self.neighbours[i].iter().map(|&j| j as usize) {
-            if j == except || j < first {
+        for &entry in self.neighbours[i].iter() {
+            let j = self.partner_index(entry);
+            // A particle's own images are partners like any other.
+            if (j == except || j < first) && !(self.tracks_images() && j == i) {
                 continue;
             }
             let pj = &self.particles[j];
-            let mut dr = pos_i - pj.position_at(t);
-            self.boundary.minimum_image(&mut dr);
+            let dr = self.separation(i, &pos_i, j, &pj.position_at(t), entry);
             let dv = vel_i - pj.vel;
             let spin_j = pj.spin_at(t);
             if let Some(tau) =
@@ -755,7 +793,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 list.push(LocalEvent::new(
                     t + tau,
                     EventKind::Collision {
-                        partner: j as u32,
+                        partner: entry,
                         partner_count: self.counts[j],
                     },
                 ));
@@ -863,14 +901,14 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                     partner,
                     partner_count,
                 } => {
-                    let j = partner as usize;
+                    let j = self.partner_index(partner);
                     if self.counts[j] != partner_count {
                         self.local.remove(i, idx);
                         self.reschedule(i);
                         self.counters.stale += 1;
                         continue;
                     }
-                    self.collide(i, j);
+                    self.collide(i, partner);
                 }
                 EventKind::Wall(wall) => self.hit_wall(i, wall),
                 EventKind::NeighbourList => self.renew_neighbours(i),
@@ -883,13 +921,19 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         }
     }
 
-    fn collide(&mut self, i: usize, j: usize) {
+    /// Resolves the collision of `i` with the neighbour-list entry `partner` (an index, or an
+    /// index and an image shift when the kernel tracks images).
+    fn collide(&mut self, i: usize, partner: u32) {
+        let j = self.partner_index(partner);
         let t = self.time;
         self.advance(i, t);
+        if self.tracks_images() && j == i {
+            self.collide_with_own_image(i, partner);
+            return;
+        }
         self.advance(j, t);
         let (pi, pj) = (&self.particles[i], &self.particles[j]);
-        let mut dr = pi.pos - pj.pos;
-        self.boundary.minimum_image(&mut dr);
+        let dr = self.separation(i, &pi.pos, j, &pj.pos, partner);
         let dv = pi.vel - pj.vel;
         let (mi, mj) = (self.mass(pi, t), self.mass(pj, t));
         let (mut spin_i, mut spin_j) = (pi.spin, pj.spin);
@@ -938,12 +982,117 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.virial += virial;
         self.particles[i].vel += dv;
         self.particles[i].spin = spin;
+        self.predict_changed(i);
+        self.counters.wall_collisions += 1;
+    }
+
+    /// After an event that changed only `i`'s trajectory: bumps its counter and predicts it
+    /// afresh.
+    #[inline]
+    fn predict_changed(&mut self, i: usize) {
         self.counts[i] = self.counts[i].wrapping_add(1);
         self.local.clear(i);
         self.predict_pairs(i, Partners::All);
         self.predict_own(i);
         self.reschedule(i);
-        self.counters.wall_collisions += 1;
+    }
+
+    /// Resolves the contact of `i` (advanced to now) with its own image `entry`
+    /// ([`Collidable::self_image_impulse`]): only its rotation changes.
+    fn collide_with_own_image(&mut self, i: usize, entry: u32) {
+        let t = self.time;
+        let dr = -images::translation(images::shift(entry), &self.period());
+        let p = &self.particles[i];
+        let m = self.mass(p, t);
+        let mut spin = p.spin;
+        let impulse = p.shape.self_image_impulse(&mut spin, &dr, t, m);
+        self.virial += impulse.dot(&dr);
+        self.particles[i].spin = spin;
+        self.predict_changed(i);
+        self.counters.collisions += 1;
+    }
+
+    /// Whether neighbour entries carry image shifts (never for shapes without
+    /// [`Collidable::PERIODIC_IMAGES`]: the test then compiles to `false`).
+    #[inline(always)]
+    fn tracks_images(&self) -> bool {
+        S::PERIODIC_IMAGES && self.images
+    }
+
+    /// Particle index of a neighbour entry.
+    #[inline(always)]
+    fn partner_index(&self, entry: u32) -> usize {
+        if self.tracks_images() {
+            images::index(entry)
+        } else {
+            entry as usize
+        }
+    }
+
+    /// Separation `c_i − c_j` of `i` at `pos_i` and the image of `j` at `pos_j` that the
+    /// neighbour entry names: the minimum image, or with images the list-sphere offset of
+    /// the entry's image plus each particle's (minimum-image) offset from its list centre.
+    #[inline(always)]
+    fn separation(&self, i: usize, pos_i: &Vec3, j: usize, pos_j: &Vec3, entry: u32) -> Vec3 {
+        if self.tracks_images() {
+            let mut offset_i = pos_i - self.list_centre[i];
+            let mut offset_j = pos_j - self.list_centre[j];
+            self.boundary.minimum_image(&mut offset_i);
+            self.boundary.minimum_image(&mut offset_j);
+            let image = images::translation(images::shift(entry), &self.period());
+            return self.list_centre[i] - self.list_centre[j] - image + (offset_i - offset_j);
+        }
+        let mut dr = pos_i - pos_j;
+        self.boundary.minimum_image(&mut dr);
+        dr
+    }
+
+    /// Periodic edge lengths (0 on walled axes).
+    fn period(&self) -> Vec3 {
+        let (lo, hi, periodic) = (
+            self.boundary.min(),
+            self.boundary.max(),
+            self.boundary.periodic(),
+        );
+        Vec3::from_fn(|k, _| if periodic[k] { hi[k] - lo[k] } else { 0.0 })
+    }
+
+    /// Whether image tracking must be switched on for neighbour-list spheres up to `width` in
+    /// diameter: two of them can then reach half the shortest periodic edge, where minimum
+    /// image stops being exact.
+    fn needs_images(&self, width: f64) -> bool {
+        if !S::PERIODIC_IMAGES || self.images {
+            return false;
+        }
+        let shortest = self
+            .period()
+            .iter()
+            .copied()
+            .filter(|&l| l > 0.0)
+            .fold(f64::INFINITY, f64::min);
+        let needed = width >= 0.5 * shortest;
+        assert!(
+            !needed || self.particles.len() <= images::MAX_PARTICLES,
+            "periodic images are tracked for at most {} particles",
+            images::MAX_PARTICLES
+        );
+        needed
+    }
+
+    /// Adds to `list_i` (`i`'s new list) every image of `j` whose list sphere overlaps `i`'s,
+    /// and the mirrored entries to `j`'s list; for `j == i`, `i`'s own images, once each.
+    fn link_images(&mut self, i: usize, j: usize, list_i: &mut NeighbourList) {
+        let d = self.list_centre[i] - self.list_centre[j];
+        let reach = self.list_radius[i] + self.list_radius[j];
+        let period = self.period();
+        let list_j = &mut self.neighbours[j];
+        images::overlapping_shifts(&d, reach, &period, i == j, |n| {
+            let entry = images::encode(j, n);
+            list_i.push(entry);
+            if i != j {
+                list_j.push(images::mirrored(i, entry));
+            }
+        });
     }
 
     fn renew_neighbours(&mut self, i: usize) {

@@ -222,6 +222,7 @@ fn seeded_kernel<B: Boundary, Q: EventQueue>(
         .iter()
         .map(|a| Ellipsoid {
             predictor: spec.predictor,
+            contact_tolerance: spec.contact_tolerance,
             ..Ellipsoid::new(*a)
         })
         .collect();

@@ -24,7 +24,8 @@
 //!    `K` a bound of `|h_a''| + |h_b''|` from the angular velocities, growth and aspect ratios
 //!    ([`support_curvature_bound`]); the first root of that quadratic is the step: no contact
 //!    can occur inside it (translation is exact; rotation and growth enter through `K`);
-//! 4. repeat until the gap is below [`CONTACT_TOLERANCE`] times the smallest semi-axis
+//! 4. repeat until the gap is below [`Ellipsoid::contact_tolerance`] (default
+//!    [`CONTACT_TOLERANCE`]) times the smallest semi-axis
 //!    (contact) or the time leaves the window.
 //!
 //! The steps shrink like Newton steps near a contact (the separating axis converges to the
@@ -53,9 +54,22 @@ use rand_distr::StandardNormal;
 use std::cell::Cell;
 use std::f64::consts::PI;
 
-/// Gap below which two ellipsoids (or an ellipsoid and a wall) count as touching, relative to
-/// the smallest semi-axis involved.
+/// Default gap below which two ellipsoids (or an ellipsoid and a wall) count as touching,
+/// relative to the smallest semi-axis involved (the scene key
+/// `particles.ellipsoid.contact_tolerance`; chosen from the sweep in BENCHMARKS.md).
 pub const CONTACT_TOLERANCE: f64 = 1e-12;
+
+/// Largest contact tolerance a scene may set: a contact is resolved while its gap is below
+/// `max(10⁻⁶, 10·tolerance)` of the smallest semi-axis, so looser tolerances would blur
+/// early (failed) predictions with contacts.
+pub const MAX_CONTACT_TOLERANCE: f64 = 1e-5;
+
+/// Gap (relative to the smallest semi-axis) up to which an impulse treats a pair as touching
+/// for predictions made with `tolerance`.
+#[inline]
+fn resolved_gap(tolerance: f64) -> f64 {
+    (10.0 * tolerance).max(1e-6)
+}
 
 /// Most certified steps of one prediction before it is counted as a numerical failure.
 pub const MAX_STEPS: u32 = 500;
@@ -103,6 +117,9 @@ pub struct Ellipsoid {
     pub g: f64,
     /// Collision predictor.
     pub predictor: Predictor,
+    /// Gap, relative to the smallest semi-axis, below which a predicted approach counts as a
+    /// contact ([`CONTACT_TOLERANCE`] by default; at most [`MAX_CONTACT_TOLERANCE`]).
+    pub contact_tolerance: f64,
 }
 
 /// Orientation and angular velocity of an ellipsoid (serialised bit for bit in checkpoints).
@@ -147,6 +164,7 @@ impl Ellipsoid {
             s0: s,
             g: 0.0,
             predictor: Predictor::SeparatingAxis,
+            contact_tolerance: CONTACT_TOLERANCE,
         }
     }
 
@@ -499,7 +517,8 @@ pub fn predict_ellipsoid_pair(
         t,
     };
     let curvature = motion.curvature_bound(max_tau);
-    let tolerance = CONTACT_TOLERANCE * a.min_semi_axis(t).min(b.min_semi_axis(t));
+    let relative = a.contact_tolerance.max(b.contact_tolerance);
+    let tolerance = relative * a.min_semi_axis(t).min(b.min_semi_axis(t));
     let switch = 1e-3 * a.min_semi_axis(t).min(b.min_semi_axis(t));
     let mut tau = start;
     let mut lambda = 0.5;
@@ -644,7 +663,7 @@ pub fn ellipsoid_pair_impulse(
         return Vec3::zeros();
     };
     let scale = a.min_semi_axis(t).min(b.min_semi_axis(t));
-    if contact.gap > 1e-6 * scale {
+    if contact.gap > resolved_gap(a.contact_tolerance.max(b.contact_tolerance)) * scale {
         // An early event (failed prediction): not in contact, nothing to resolve.
         return Vec3::zeros();
     }
@@ -669,10 +688,63 @@ pub fn ellipsoid_pair_impulse(
     n * j
 }
 
+/// Resolves a contact at time `t` of an ellipsoid with its own periodic image displaced by
+/// `−dr` (a lattice vector): the impulse at the first contact (on the body, from the image at
+/// `−dr`); the angular velocity is updated.
+///
+/// The body touches the image at `−dr` at lever arm `p` (normal `n`, from that image towards
+/// the body) and, translated by the period, the image at `+dr` at lever arm `q = p + dr`.
+/// Every copy moves alike, so the body receives `+J n` at `p` and `−J n` at `q`: its linear
+/// momentum is unchanged and `Δω = J I⁻¹ w`, `w = (p − q) × n`. The contact points separate
+/// at `u = ω·w` along `n` (their centre velocities are equal), and `Δu = J wᵀI⁻¹w`;
+/// reflecting `u` against the growth of the two surfaces as for a pair gives
+/// `J = (u' − u)/(wᵀI⁻¹w)`, which without growth (`u' = −u`) leaves `½ωᵀIω` unchanged:
+/// `ΔE = J(u + ½J wᵀI⁻¹w) = 0`.
+pub fn ellipsoid_self_image_impulse(
+    shape: &Ellipsoid,
+    spin: &mut Spin,
+    dr: &Vec3,
+    t: f64,
+    mass: f64,
+) -> Vec3 {
+    let rot = spin.rotation();
+    let m = shape.shape_matrix(&rot, t);
+    let r = -dr;
+    let Some(contact) = contact_geometry(&m, &m, &r) else {
+        count_failure();
+        return Vec3::zeros();
+    };
+    if contact.gap > resolved_gap(shape.contact_tolerance) * shape.min_semi_axis(t) {
+        return Vec3::zeros(); // an early event: not in contact
+    }
+    let n = -contact.normal;
+    let (p, q) = (contact.point, contact.point - r);
+    let w = (p - q).cross(&n);
+    let u = spin.omega.dot(&w);
+    let growth = (contact.ha + contact.hb) * shape.relative_growth(t);
+    let u_after = (2.0 * growth - u).max(growth);
+    let i_w = shape.inverse_inertia_times(&rot, mass, t, &w);
+    let k = w.dot(&i_w);
+    if k.is_nan() || k <= 0.0 {
+        // No lever (a needle exactly along the shift, tip on tip): rotation cannot part the
+        // contact. Counted; the pair is re-predicted (and stalls if it stays jammed).
+        count_failure();
+        return Vec3::zeros();
+    }
+    let j = (u_after - u) / k;
+    spin.omega += i_w * j;
+    n * j
+}
+
 impl Collidable for Ellipsoid {
     type Spin = Spin;
     const ROTATES: bool = true;
     const SHAPED_PLANE_CONTACT: bool = true;
+    const PERIODIC_IMAGES: bool = true;
+
+    fn self_image_impulse(&self, spin: &mut Spin, dr: &Vec3, t: f64, mass: f64) -> Vec3 {
+        ellipsoid_self_image_impulse(self, spin, dr, t, mass)
+    }
 
     fn numerical_failures() -> u64 {
         prediction_failures()
@@ -809,7 +881,7 @@ impl Collidable for Ellipsoid {
         }
         let curvature =
             support_curvature_bound(self, spin.omega.norm(), self.scale_at(t + max_tau));
-        let tolerance = CONTACT_TOLERANCE * self.min_semi_axis(t);
+        let tolerance = self.contact_tolerance * self.min_semi_axis(t);
         let mut tau = start;
         for _ in 0..MAX_STEPS {
             let pose = Pose::of(self, spin, tau, t + tau);
@@ -931,6 +1003,38 @@ mod tests {
         let h = 1e-6;
         let numeric = (gap_n(tau + h) - gap_n(tau - h)) / (2.0 * h);
         assert!((rate - numeric).abs() < 1e-6, "{rate} {numeric}");
+    }
+
+    #[test]
+    fn a_contact_with_its_own_image_keeps_the_rotational_energy_and_reverses_the_gap_velocity() {
+        let e = Ellipsoid::new(Vec3::new(1.0, 0.05, 0.07));
+        let mut spin = Spin {
+            orientation: UnitQuaternion::from_scaled_axis(Vec3::new(0.1, -0.2, 0.3)),
+            omega: Vec3::new(0.7, -1.3, 2.1),
+        };
+        // A translate `r` of a centrally symmetric body touches it when `rᵀM⁻¹r = 4`: the
+        // image at `r = L·x` with `L = 2/√(xᵀM⁻¹x)`.
+        let m = e.shape_matrix(&spin.rotation(), 0.0);
+        let edge = 2.0 / m.try_inverse().unwrap()[(0, 0)].sqrt();
+        let dr = -Vec3::x() * edge;
+        let mass = 1.3;
+        let energy = |s: &Spin| e.rotational_kinetic_twice(s, mass, 0.0);
+        let (pa, n) = contact_point_and_normal(&e, &e, &spin, &spin, &dr, 0.0).unwrap();
+        let w = (-dr).cross(&n);
+        if spin.omega.dot(&w) > 0.0 {
+            spin.omega = -spin.omega; // approaching, as at a predicted contact
+        }
+        let u_before = spin.omega.dot(&w);
+        assert!(u_before < 0.0);
+        let e_before = energy(&spin);
+        let impulse = ellipsoid_self_image_impulse(&e, &mut spin, &dr, 0.0, mass);
+        assert!(impulse.norm() > 0.0 && (pa - (-dr) * 0.5).norm() < 1e-9);
+        let u_after = spin.omega.dot(&w);
+        assert!(
+            (u_after + u_before).abs() < 1e-12 * u_before.abs(),
+            "{u_before} → {u_after}"
+        );
+        assert!(((energy(&spin) - e_before) / e_before).abs() < 1e-12);
     }
 
     #[test]

@@ -15,8 +15,9 @@ pub mod quartic;
 mod sphere;
 
 pub use ellipsoid::{
-    contact_point_and_normal, ellipsoid_pair_impulse, predict_ellipsoid_pair, prediction_failures,
-    support_curvature_bound, Ellipsoid, Predictor, Spin, CONTACT_TOLERANCE, MAX_STEPS,
+    contact_point_and_normal, ellipsoid_pair_impulse, ellipsoid_self_image_impulse,
+    predict_ellipsoid_pair, prediction_failures, support_curvature_bound, Ellipsoid, Predictor,
+    Spin, CONTACT_TOLERANCE, MAX_CONTACT_TOLERANCE, MAX_STEPS,
 };
 pub use sphere::{predict_sphere_sphere, Sphere};
 
@@ -74,6 +75,13 @@ pub trait Collidable: Clone + Send + Sync + 'static {
     /// container treats it through its bounding sphere (exact for spheres, conservative for
     /// other shapes).
     const SHAPED_PLANE_CONTACT: bool = false;
+    /// Whether a particle may reach more than half a periodic box edge, so that it can touch
+    /// several periodic images of a partner, and its own images. The kernel then tracks which
+    /// image each neighbour is (only when the box is that small, decided at barriers) and
+    /// resolves contacts with the particle's own images by
+    /// [`Collidable::self_image_impulse`]. `false` (the sphere: scenes keep spheres below half
+    /// the box) compiles image handling out of the kernel.
+    const PERIODIC_IMAGES: bool = false;
 
     /// Numerical failures of this shape's predictions on the current thread so far (a
     /// monotone counter; a prediction that gave up and answered conservatively). The kernel
@@ -156,6 +164,16 @@ pub trait Collidable: Clone + Send + Sync + 'static {
         ma: f64,
         mb: f64,
     ) -> Vec3;
+
+    /// Resolves a contact at time `t` of a particle (mass `mass`) with its own periodic image
+    /// displaced by `−dr` (`dr = c − c_image`, a lattice vector): the particle touches the image
+    /// at `+(−dr)` with one point of its surface and, by periodicity, the image at `+dr` with
+    /// another, receiving opposite impulses at the two points. Its linear momentum is
+    /// unchanged; the angular part is applied to `spin`. Returns the impulse at the first
+    /// contact (for the virial `J·dr`). Only called when [`Collidable::PERIODIC_IMAGES`].
+    fn self_image_impulse(&self, _spin: &mut Self::Spin, _dr: &Vec3, _t: f64, _mass: f64) -> Vec3 {
+        unreachable!("only shapes with PERIODIC_IMAGES meet their own images")
+    }
 
     /// First time `τ ∈ [0, max_tau]` after `t` at which the particle touches the plane with
     /// unit normal `n` (pointing from the plane into the container) at signed distance
