@@ -88,11 +88,6 @@ impl Default for LocalList {
 }
 
 impl LocalList {
-    #[inline]
-    pub(super) fn is_empty(&self) -> bool {
-        self.events.iter().all(|e| e.time == f64::INFINITY)
-    }
-
     /// Adds an event to the first empty slot; when none is left, the latest event (this one
     /// or a kept one) is dropped.
     #[inline]
@@ -112,19 +107,26 @@ impl LocalList {
             self.events[latest] = event;
         }
     }
+}
 
-    /// Index and copy of the earliest event (the first slot on ties).
-    #[inline]
-    pub(super) fn earliest(&self) -> Option<(usize, LocalEvent)> {
-        let mut best = 0;
-        for k in 1..LOCAL_CAPACITY {
-            if self.events[k].time < self.events[best].time {
-                best = k;
-            }
+/// Whether every slot of `events` is empty.
+#[inline]
+fn all_empty(events: &[LocalEvent; LOCAL_CAPACITY]) -> bool {
+    events.iter().all(|e| e.time == f64::INFINITY)
+}
+
+/// Index and copy of the earliest event of `events` (the first slot on ties), `None` if all
+/// slots are empty.
+#[inline]
+fn earliest_of(events: &[LocalEvent; LOCAL_CAPACITY]) -> Option<(usize, LocalEvent)> {
+    let mut best = 0;
+    for k in 1..LOCAL_CAPACITY {
+        if events[k].time < events[best].time {
+            best = k;
         }
-        let event = self.events[best];
-        (event.time < f64::INFINITY).then_some((best, event))
     }
+    let event = events[best];
+    (event.time < f64::INFINITY).then_some((best, event))
 }
 
 /// The local event lists of all particles, stored as two arrays: the events (48 bytes per
@@ -185,7 +187,8 @@ impl LocalLists {
     /// Index and copy of the earliest event of list `i` ([`LocalList::earliest`]).
     #[inline]
     pub(super) fn earliest(&self, i: usize) -> Option<(usize, LocalEvent)> {
-        self.get(i).earliest()
+        // The events alone: the flag array is another cache line, not needed to pop.
+        earliest_of(&self.events[i])
     }
 
     /// Removes the event at `index` of list `i`.
@@ -198,7 +201,8 @@ impl LocalLists {
     /// predicted afresh).
     #[inline]
     pub(super) fn exhausted(&self, i: usize) -> bool {
-        self.truncated[i] && self.get(i).is_empty()
+        // The events first (just written or read by the caller); the flag only when empty.
+        all_empty(&self.events[i]) && self.truncated[i]
     }
 
     /// The arrays, for reordering them with the particles.
@@ -230,7 +234,7 @@ mod tests {
         assert!(!lists.exhausted(0), "never truncated");
         lists.clear(1);
         assert!(!lists.exhausted(1));
-        assert!(lists.get(1).is_empty());
+        assert!(lists.earliest(1).is_none());
     }
 
     #[test]
