@@ -681,19 +681,6 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.advance(i, t);
         self.boundary.wrap(&mut self.particles[i].pos);
         let old = std::mem::take(&mut self.neighbours[i]);
-        for &j in &old {
-            if self.tracks_images() {
-                // Every image of `i` leaves `j`'s list (`j` may be listed once per image).
-                self.neighbours[images::index(j)].retain(|x| images::index(*x) != i);
-                continue;
-            }
-            let list = &mut self.neighbours[j as usize];
-            if let Some(k) = list.iter().position(|&x| x as usize == i) {
-                list.swap_remove(k);
-            }
-        }
-        let mut new = old;
-        new.clear();
         self.list_centre[i] = self.particles[i].pos;
         self.list_radius[i] = self.list_radius_for(self.particles[i].shape.bounding_radius(t));
         self.grid.remove(i);
@@ -702,12 +689,36 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let mut candidates = std::mem::take(&mut self.scratch);
         self.list_candidates(i, &mut candidates);
         for &j in &candidates {
-            let j = j as usize;
-            if self.tracks_images() {
-                self.link_images(i, j, &mut new);
-            } else if j != i && self.lists_overlap(i, j) {
-                new.push(j as u32);
-                self.neighbours[j].push(i as u32);
+            prefetch(&self.list_centre[j as usize]);
+        }
+        let mut new = NeighbourList::new();
+        if self.tracks_images() {
+            for &j in &old {
+                // Every image of `i` leaves `j`'s list (`j` may be listed once per image).
+                self.neighbours[images::index(j)].retain(|x| images::index(*x) != i);
+            }
+            for &j in &candidates {
+                self.link_images(i, j as usize, &mut new);
+            }
+        } else {
+            new.extend(
+                candidates
+                    .iter()
+                    .copied()
+                    .filter(|&j| j as usize != i && self.lists_overlap(i, j as usize)),
+            );
+            // Most partners stay: only the lists of those that leave or arrive are edited
+            // (two scans of the short lists instead of a cache miss on every partner's
+            // list; measured: BENCHMARKS.md, design decisions).
+            let listed = |list: &[u32], j: u32| list.iter().fold(false, |a, &x| a | (x == j));
+            for &j in old.iter().filter(|&&j| !listed(&new, j)) {
+                let list = &mut self.neighbours[j as usize];
+                if let Some(k) = list.iter().position(|&x| x as usize == i) {
+                    list.swap_remove(k);
+                }
+            }
+            for &j in new.iter().filter(|&&j| !listed(&old, j)) {
+                self.neighbours[j as usize].push(i as u32);
             }
         }
         self.scratch = candidates;
