@@ -1,7 +1,7 @@
 //! Independent verification of a packing: overlap, gap and containment.
 //!
 //! This module shares no code with the kernel's prediction, cell grid or boundaries: it works
-//! on the packing as written ([`Packing`]), finds candidate pairs through its own hash grid
+//! on the packing as written ([`Packing`]), finds candidate pairs through its own cell levels
 //! and measures distances with its own minimum-image rule (`dx − L·round(dx/L)`). A pair is
 //! accepted when `|c_i − c_j| ≥ (1 − tol)·(r_i + r_j) + min_gap`, a sphere when its distance
 //! to every wall is at least `(1 − tol)·r + wall_gap` (`wall_gap` defaults to `min_gap/2`), with `tol` = [`TOLERANCE`].
