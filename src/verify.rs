@@ -1,7 +1,7 @@
 //! Independent verification of a packing: overlap, gap and containment.
 //!
 //! This module shares no code with the kernel's prediction, cell grid or boundaries: it works
-//! on the packing as written ([`Packing`]), finds candidate pairs through its own hash grid
+//! on the packing as written ([`Packing`]), finds candidate pairs through its own cell levels
 //! and measures distances with its own minimum-image rule (`dx − L·round(dx/L)`). A pair is
 //! accepted when `|c_i − c_j| ≥ (1 − tol)·(r_i + r_j) + min_gap`, a sphere when its distance
 //! to every wall is at least `(1 − tol)·r + wall_gap` (`wall_gap` defaults to `min_gap/2`), with `tol` = [`TOLERANCE`].
@@ -234,51 +234,64 @@ pub fn verify(packing: &Packing) -> Verification {
         }
     }
 
-    // Pairs through a grid of cells at least as wide as the largest contact distance, with
-    // at most about 2 cells per particle; the particles are counting-sorted by cell
-    // (`members` of cell `c` are `sorted[start[c]..start[c + 1]]`): 4 bytes per particle and
-    // per cell, no allocation per cell.
+    // Pairs through levels of cells, each counting-sorted by cell. Level 0 has cells at
+    // least as wide as the largest contact diameter `2 r_max + gap`, each finer level half
+    // as wide, down to the smallest contact diameter or until a level would have more than
+    // about 2 cells per ball. A ball belongs to the finest level whose cells are at least its
+    // contact diameter `2 r + gap` wide. A ball `i` looks for partners at its own level and
+    // at every coarser one, in the 3 × 3 × 3 cells around it: a partner `j` at level
+    // `l ≤ L_i` has `2 r_j + gap ≤ h_l` and `2 r_i + gap ≤ h_{L_i} ≤ h_l`, so a conflict
+    // (`|c_i − c_j| < r_i + r_j + gap ≤ h_l`) lies in a neighbouring cell along every axis.
+    // Each pair is seen once (from its finer ball; at one level, from the lower index). One
+    // level of cells as wide as the largest grain would hold thousands of small grains per
+    // cell for concrete (size ratio 32): a quadratic search at 10⁶ grains.
     let r_max = balls.iter().map(|b| b.r).fold(0.0, f64::max);
+    let r_min = balls.iter().map(|b| b.r).fold(f64::INFINITY, f64::min);
     let len = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
-    let mut h = (2.0 * r_max + gap).max(f64::MIN_POSITIVE);
+    let max_cells = 2 * balls.len() as i64 + 27;
     let cells_along = |h: f64| -> [i64; 3] {
         std::array::from_fn(|k| ((len[k] / h).floor().min(1e6) as i64).max(1))
     };
-    let max_cells = 2 * balls.len() as i64 + 27;
-    while cells_along(h).iter().product::<i64>() > max_cells {
-        h *= 1.25;
+    let mut widths = vec![(2.0 * r_max + gap).max(f64::MIN_POSITIVE)];
+    while cells_along(widths[0]).iter().product::<i64>() > max_cells {
+        widths[0] *= 1.25;
     }
-    let ncell = cells_along(h);
-    let key = |c: &[f64; 3]| -> [i64; 3] {
-        std::array::from_fn(|k| {
-            let x = ((c[k] - lo[k]) / (len[k] / ncell[k] as f64)).floor() as i64;
-            x.clamp(0, ncell[k] - 1)
-        })
-    };
-    let linear = |k: &[i64; 3]| ((k[0] * ncell[1] + k[1]) * ncell[2] + k[2]) as usize;
-    let mut start = vec![0u32; ncell.iter().product::<i64>() as usize + 1];
-    for b in &balls {
-        start[linear(&key(&b.c)) + 1] += 1;
-    }
-    for c in 1..start.len() {
-        start[c] += start[c - 1];
-    }
-    let mut sorted = vec![0u32; balls.len()];
-    let mut fill = start.clone();
-    for (i, b) in balls.iter().enumerate() {
-        let c = linear(&key(&b.c));
-        sorted[fill[c] as usize] = i as u32;
-        fill[c] += 1;
-    }
-    drop(fill);
-    // Offsets along each axis: all cells if a periodic axis has fewer than 3.
-    let offsets: [Vec<i64>; 3] = std::array::from_fn(|k| {
-        if periodic[k] && ncell[k] < 3 {
-            (0..ncell[k]).collect()
-        } else {
-            vec![-1, 0, 1]
+    loop {
+        let h = 0.5 * widths[widths.len() - 1];
+        // Negated comparison: a NaN width ends the halving too.
+        let holds_the_smallest = h >= 2.0 * r_min + gap;
+        if !holds_the_smallest || cells_along(h).iter().product::<i64>() > max_cells {
+            break;
         }
-    });
+        widths.push(h);
+    }
+    let level_of: Vec<u8> = balls
+        .iter()
+        .map(|b| {
+            widths
+                .iter()
+                .rposition(|&h| h >= 2.0 * b.r + gap)
+                .unwrap_or(0) as u8
+        })
+        .collect();
+    let levels: Vec<PairLevel> = widths
+        .iter()
+        .enumerate()
+        .map(|(l, &h)| {
+            let members = level_of
+                .iter()
+                .enumerate()
+                .filter(|&(_, &li)| li as usize == l);
+            PairLevel::sorted(
+                cells_along(h),
+                lo,
+                len,
+                periodic,
+                &balls,
+                members.map(|(i, _)| i),
+            )
+        })
+        .collect();
     // An ellipsoid against its own images (each pair of opposite shifts once): a needle
     // longer than the box edge along its axis overlaps itself.
     for (i, (b, o)) in balls.iter().zip(&oriented).enumerate() {
@@ -293,90 +306,165 @@ pub fn verify(packing: &Packing) -> Verification {
             }
         }
     }
+    let mut seen: Vec<u32> = Vec::with_capacity(27);
     for (i, bi) in balls.iter().enumerate() {
-        let ki = key(&bi.c);
-        let mut seen: Vec<[i64; 3]> = Vec::with_capacity(27);
-        for ox in &offsets[0] {
-            for oy in &offsets[1] {
-                for oz in &offsets[2] {
-                    let o = [*ox, *oy, *oz];
-                    let mut kj = [0i64; 3];
-                    let mut valid = true;
-                    for k in 0..3 {
-                        let x = if periodic[k] && ncell[k] < 3 {
-                            o[k]
-                        } else {
-                            ki[k] + o[k]
-                        };
-                        kj[k] = if periodic[k] {
-                            x.rem_euclid(ncell[k])
-                        } else if (0..ncell[k]).contains(&x) {
-                            x
-                        } else {
-                            valid = false;
-                            0
-                        };
-                    }
-                    if !valid || seen.contains(&kj) {
+        let own = level_of[i] as usize;
+        for (l, level) in levels[..=own].iter().enumerate() {
+            level.neighbour_cells(&bi.c, &mut seen);
+            for &c in &seen {
+                for j in level.members(c).iter().map(|&j| j as usize) {
+                    if l == own && j <= i {
                         continue;
                     }
-                    seen.push(kj);
-                    let c = linear(&kj);
-                    let members = &sorted[start[c] as usize..start[c + 1] as usize];
-                    for j in members.iter().map(|&j| j as usize) {
-                        if j <= i {
-                            continue;
+                    let bj = &balls[j];
+                    let mut d2 = 0.0;
+                    let mut dv = [0.0; 3];
+                    for k in 0..3 {
+                        let mut d = bi.c[k] - bj.c[k];
+                        if periodic[k] {
+                            d -= len[k] * (d / len[k]).round();
                         }
-                        let bj = &balls[j];
-                        let mut d2 = 0.0;
-                        let mut dv = [0.0; 3];
-                        for k in 0..3 {
-                            let mut d = bi.c[k] - bj.c[k];
-                            if periodic[k] {
-                                d -= len[k] * (d / len[k]).round();
-                            }
-                            dv[k] = d;
-                            d2 += d * d;
+                        dv[k] = d;
+                        d2 += d * d;
+                    }
+                    if oriented[i].is_some() || oriented[j].is_some() {
+                        // Every periodic image whose bounding sphere reaches `i`'s (a
+                        // needle as long as the box meets several images of a partner).
+                        let d = Vector3::from(dv);
+                        let mi = shape_matrix_of(oriented[i].as_deref(), bi.r);
+                        let mj = shape_matrix_of(oriented[j].as_deref(), bj.r);
+                        for t in lattice_shifts(&d, bi.r + bj.r, &len, periodic) {
+                            let image = d + t;
+                            check_ellipsoids(&mut out, i, j, &mi, &mj, &image);
                         }
-                        if oriented[i].is_some() || oriented[j].is_some() {
-                            // Every periodic image whose bounding sphere reaches `i`'s (a
-                            // needle as long as the box meets several images of a partner).
-                            let d = Vector3::from(dv);
-                            let mi = shape_matrix_of(oriented[i].as_deref(), bi.r);
-                            let mj = shape_matrix_of(oriented[j].as_deref(), bj.r);
-                            for t in lattice_shifts(&d, bi.r + bj.r, &len, periodic) {
-                                let image = d + t;
-                                check_ellipsoids(&mut out, i, j, &mi, &mj, &image);
-                            }
-                            continue;
-                        }
-                        let dist = d2.sqrt();
-                        let sum = bi.r + bj.r;
-                        let rel = dist / sum - 1.0;
-                        out.nearest_gap_relative[i] = out.nearest_gap_relative[i].min(rel);
-                        out.nearest_gap_relative[j] = out.nearest_gap_relative[j].min(rel);
-                        if out.min_pair_gap_relative.is_none_or(|m| rel < m) {
-                            out.min_pair_gap_relative = Some(rel);
-                        }
-                        let abs = dist - sum;
-                        if out.min_pair_gap.is_none_or(|m| abs < m) {
-                            out.min_pair_gap = Some(abs);
-                        }
-                        if dist < (1.0 - TOLERANCE) * sum + gap {
-                            out.violate(format!(
-                                "particles {i} and {j} are {dist} apart: needs ≥ {} \
-                                     (radii {} + {}, gap {gap})",
-                                sum + gap,
-                                bi.r,
-                                bj.r
-                            ));
-                        }
+                        continue;
+                    }
+                    let dist = d2.sqrt();
+                    let sum = bi.r + bj.r;
+                    let rel = dist / sum - 1.0;
+                    out.nearest_gap_relative[i] = out.nearest_gap_relative[i].min(rel);
+                    out.nearest_gap_relative[j] = out.nearest_gap_relative[j].min(rel);
+                    if out.min_pair_gap_relative.is_none_or(|m| rel < m) {
+                        out.min_pair_gap_relative = Some(rel);
+                    }
+                    let abs = dist - sum;
+                    if out.min_pair_gap.is_none_or(|m| abs < m) {
+                        out.min_pair_gap = Some(abs);
+                    }
+                    if dist < (1.0 - TOLERANCE) * sum + gap {
+                        out.violate(format!(
+                            "particles {i} and {j} are {dist} apart: needs ≥ {} \
+                                 (radii {} + {}, gap {gap})",
+                            sum + gap,
+                            bi.r,
+                            bj.r
+                        ));
                     }
                 }
             }
         }
     }
     out
+}
+
+/// One level of the pair search of [`verify`]: a box of `ncell` cells per axis and its balls
+/// counting-sorted by cell (the members of cell `c` are `sorted[start[c]..start[c + 1]]`):
+/// 4 bytes per ball and per cell, no allocation per cell.
+struct PairLevel {
+    lo: [f64; 3],
+    len: [f64; 3],
+    periodic: [bool; 3],
+    ncell: [i64; 3],
+    start: Vec<u32>,
+    sorted: Vec<u32>,
+}
+
+impl PairLevel {
+    /// The level of `ncell` cells over the box `[lo, lo + len]` holding the balls `members`
+    /// (ascending indices).
+    fn sorted(
+        ncell: [i64; 3],
+        lo: [f64; 3],
+        len: [f64; 3],
+        periodic: [bool; 3],
+        balls: &[Ball],
+        members: impl Iterator<Item = usize> + Clone,
+    ) -> Self {
+        let mut level = Self {
+            lo,
+            len,
+            periodic,
+            ncell,
+            start: vec![0u32; ncell.iter().product::<i64>() as usize + 1],
+            sorted: Vec::new(),
+        };
+        for i in members.clone() {
+            let c = level.linear(&level.key(&balls[i].c));
+            level.start[c + 1] += 1;
+        }
+        for c in 1..level.start.len() {
+            level.start[c] += level.start[c - 1];
+        }
+        level.sorted = vec![0u32; level.start[level.start.len() - 1] as usize];
+        let mut fill = level.start.clone();
+        for i in members {
+            let c = level.linear(&level.key(&balls[i].c));
+            level.sorted[fill[c] as usize] = i as u32;
+            fill[c] += 1;
+        }
+        level
+    }
+
+    /// Cell coordinates of point `c` (clamped to the box).
+    fn key(&self, c: &[f64; 3]) -> [i64; 3] {
+        std::array::from_fn(|k| {
+            let x = ((c[k] - self.lo[k]) / (self.len[k] / self.ncell[k] as f64)).floor() as i64;
+            x.clamp(0, self.ncell[k] - 1)
+        })
+    }
+
+    fn linear(&self, k: &[i64; 3]) -> usize {
+        ((k[0] * self.ncell[1] + k[1]) * self.ncell[2] + k[2]) as usize
+    }
+
+    /// The balls sorted into cell `c`.
+    fn members(&self, c: u32) -> &[u32] {
+        &self.sorted[self.start[c as usize] as usize..self.start[c as usize + 1] as usize]
+    }
+
+    /// The cells around point `c`, each once, into `out`: the 3 × 3 × 3 block, clipped at
+    /// walls; a periodic axis of fewer than 3 cells contributes each of its cells once.
+    fn neighbour_cells(&self, c: &[f64; 3], out: &mut Vec<u32>) {
+        out.clear();
+        let kc = self.key(c);
+        // Per axis: up to 3 cell coordinates.
+        let axis = |k: usize| -> ([i64; 3], usize) {
+            let n = self.ncell[k];
+            let mut xs = [0i64; 3];
+            let mut count = 0;
+            for o in -1..=1 {
+                let x = if self.periodic[k] && n < 3 {
+                    o + 1
+                } else {
+                    kc[k] + o
+                };
+                let x = if self.periodic[k] { x.rem_euclid(n) } else { x };
+                if (0..n).contains(&x) && !xs[..count].contains(&x) {
+                    xs[count] = x;
+                    count += 1;
+                }
+            }
+            (xs, count)
+        };
+        let (xs, ys, zs) = (axis(0), axis(1), axis(2));
+        for &x in &xs.0[..xs.1] {
+            for &y in &ys.0[..ys.1] {
+                for &z in &zs.0[..zs.1] {
+                    out.push(self.linear(&[x, y, z]) as u32);
+                }
+            }
+        }
+    }
 }
 
 /// Records the Perram–Wertheim check of ellipsoids (or spheres) `i` and `j` with shape matrices
@@ -867,6 +955,73 @@ mod tests {
             min: [0.0; 3],
             max: len,
             periodic: [true; 3],
+        }
+    }
+
+    /// Every pair violation of spheres with radii 0.25–8 (log-uniform, size ratio 32: several
+    /// search levels) is found, in a walled and in a partly periodic box: the count and the
+    /// smallest gap equal those of the check of all `n (n − 1) / 2` pairs.
+    #[test]
+    fn spheres_of_size_ratio_32_are_checked_against_every_pair() {
+        use rand::{Rng, SeedableRng};
+        let len = [60.0, 50.0, 40.0];
+        let gap = 0.3;
+        for (seed, periodic, n) in [
+            (1, [false; 3], 150),
+            (2, [true, false, true], 150),
+            (3, [false; 3], 400),
+            (4, [true; 3], 400),
+        ] {
+            let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);
+            let balls: Vec<([f64; 3], f64)> = (0..n)
+                .map(|_| {
+                    let r = 0.25 * 32f64.powf(rng.gen::<f64>());
+                    // Inside the walls with room for the wall gap: only pairs can violate.
+                    let c = std::array::from_fn(|k| {
+                        let m = if periodic[k] { 0.0 } else { r + gap };
+                        m + rng.gen::<f64>() * (len[k] - 2.0 * m)
+                    });
+                    (c, r)
+                })
+                .collect();
+            let mut expected = 0;
+            let mut smallest = f64::INFINITY;
+            for (i, (ci, ri)) in balls.iter().enumerate() {
+                for (cj, rj) in &balls[i + 1..] {
+                    let d2: f64 = (0..3)
+                        .map(|k| {
+                            let mut d = ci[k] - cj[k];
+                            if periodic[k] {
+                                d -= len[k] * (d / len[k]).round();
+                            }
+                            d * d
+                        })
+                        .sum();
+                    let dist = d2.sqrt();
+                    smallest = smallest.min(dist - (ri + rj));
+                    expected += usize::from(dist < (1.0 - TOLERANCE) * (ri + rj) + gap);
+                }
+            }
+            let container = ContainerRecord::Box {
+                min: [0.0; 3],
+                max: len,
+                periodic,
+            };
+            let particles = balls
+                .iter()
+                .map(|&(center, radius)| ParticleRecord::Sphere { center, radius })
+                .collect();
+            let packing = Packing {
+                min_gap: gap,
+                ..Packing::new(container, particles)
+            };
+            let v = verify(&packing);
+            assert!(
+                expected > 0,
+                "seed {seed}: the sample should hold violations"
+            );
+            assert_eq!(v.violation_count, expected, "seed {seed}");
+            assert_eq!(v.min_pair_gap, Some(smallest), "seed {seed}");
         }
     }
 
