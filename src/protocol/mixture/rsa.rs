@@ -839,7 +839,8 @@ pub fn rsa_mixture<R: Rng>(
             // fallen in dead voxels and been rejected), so the attempt limit means the
             // same with and without the map.
             let (mut rejections, mut attempts) = (0u64, 0.0f64);
-            let map_after = ExclusionMap::build_after(boundary, inscribed);
+            // (Computed once the body has been rejected often: it is at least REFINE_AFTER.)
+            let mut map_after = None;
             loop {
                 if matches!(search, Search::Scan(_)) && rejections >= FINE_GRID_AFTER {
                     let mut grid = CapsuleGrid::new(boundary, pad, FINE_CELLS_PER_AXIS);
@@ -848,7 +849,12 @@ pub fn rsa_mixture<R: Rng>(
                     }
                     search = Search::Grid(grid);
                 }
-                if map.is_none() && rejections >= map_after {
+                if map.is_none()
+                    && rejections >= REFINE_AFTER
+                    && rejections
+                        >= *map_after
+                            .get_or_insert_with(|| ExclusionMap::build_after(boundary, inscribed))
+                {
                     map = Some(ExclusionMap::new(boundary, inscribed, &bodies));
                 }
                 let center = match &map {
