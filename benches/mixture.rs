@@ -6,7 +6,7 @@
 //! cargo bench --bench mixture                      # every table (see BENCHMARKS.md)
 //! cargo bench --bench mixture -- --quick           # 50 + 50 tables only, 3 runs per cell
 //! cargo bench --bench mixture -- --only md --counts 50 --runs 5 --out table.md
-//! cargo bench --bench mixture -- --only rsa --cpu     # CPU time of the thread, not wall
+//! cargo bench --bench mixture -- --only rsa --wall    # wall time instead of the thread's CPU time
 //! ```
 
 use densepack::bench::mixture::{paper_tables, TablesConfig};
@@ -19,7 +19,7 @@ fn main() {
         runs: 5,
         limit: 10.0,
         cells: None,
-        cpu: false,
+        cpu: true,
     };
     let mut out = None::<String>;
     while let Some(a) = args.next() {
@@ -53,6 +53,7 @@ fn main() {
                 )
             }
             "--cpu" => config.cpu = true,
+            "--wall" => config.cpu = false,
             "--bench" => {}
             other => panic!("unknown argument {other}"),
         }

@@ -60,12 +60,16 @@ pub enum GenerationFailure {
 pub struct Generated {
     /// Wall seconds of the generation (not of the check).
     pub seconds: f64,
-    /// CPU seconds of the generating thread: on a shared machine the wall clock also counts
+    /// CPU seconds of the generating thread (an RSA run under [`SHORT_RUN`]: the mean of
+    /// repeated runs of its seed, see [`generate`]): on a shared machine the wall clock also counts
     /// the time the thread waited for a core, which the paper's dedicated machine did not.
     pub cpu_seconds: f64,
     /// Smallest surface gap between two bodies found by the check (box units).
     pub min_gap: Option<f64>,
 }
+
+/// CPU seconds below which an RSA run is timed as the mean of repeated runs of its seed.
+const SHORT_RUN: f64 = 1e-3;
 
 /// One generation by `method` (`"rsa"` or `"md"`) with seed `seed`, limited to `limit`
 /// wall seconds; `settings` tunes the relaxer (ignored by RSA).
@@ -80,16 +84,16 @@ pub fn generate(
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
     let boundary = spec.boundary();
     let sizes = spec.sizes(GenerationOrder::CylindersFirst);
+    // The paper's protocol for RSA: relaunch until the time limit. A start is abandoned
+    // when a body is proven jammed (no free centre) or after 10⁶ uniform draws of one body.
+    let limits = RsaLimits {
+        time_limit: Some(Duration::from_secs_f64(limit)),
+        max_attempts_per_body: 1_000_000,
+        max_restarts: u32::MAX,
+    };
     let start = Instant::now();
     let cpu_start = cpu_time::ThreadTime::now();
     let rve = if method == "rsa" {
-        // The paper's protocol: relaunch until the time limit. A start is abandoned when a
-        // body is proven jammed (no free centre) or after 10⁶ uniform draws of one body.
-        let limits = RsaLimits {
-            time_limit: Some(Duration::from_secs_f64(limit)),
-            max_attempts_per_body: 1_000_000,
-            max_restarts: u32::MAX,
-        };
         rsa_mixture(&boundary, &sizes, &limits, &mut rng)
             .map_err(|e| GenerationFailure::GaveUp {
                 message: e.to_string(),
@@ -109,7 +113,19 @@ pub fn generate(
         rve
     };
     let seconds = start.elapsed().as_secs_f64();
-    let cpu_seconds = cpu_start.elapsed().as_secs_f64();
+    let mut cpu_seconds = cpu_start.elapsed().as_secs_f64();
+    if method == "rsa" && cpu_seconds < SHORT_RUN {
+        // A run this short is as long as the clock reads and the cold caches of its first
+        // call: repeat the same seed (the same packing, no limit strikes) until the batch
+        // lasts about ten times SHORT_RUN and report the mean.
+        let repeats = ((10.0 * SHORT_RUN / cpu_seconds.max(1e-7)) as u32).clamp(1, 1000);
+        let batch = cpu_time::ThreadTime::now();
+        for _ in 0..repeats {
+            let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+            std::hint::black_box(rsa_mixture(&boundary, &sizes, &limits, &mut rng).is_ok());
+        }
+        cpu_seconds = batch.elapsed().as_secs_f64() / f64::from(repeats);
+    }
     let packing = crate::run::mixture_packing(&rve, seed, seconds, method, serde_json::Map::new());
     let v = verify(&packing);
     if !v.ok() {
@@ -178,7 +194,8 @@ pub fn paper_tables(config: &TablesConfig) -> StudyOutput {
             "Speed-up = paper mean time (C++, i7-960 @ 3.2 GHz, 20 runs) / densepack mean {} time \
              over the runs that produced a packing accepted by the independent check, in the \
              cells where both have a number; {} run(s) per cell, {} s per run, cylinders-first \
-             order, periodic unit cube, a different Xoshiro256++ seed per run. `bound`: \
+             order, periodic unit cube, a different Xoshiro256++ seed per run (CPU: an RSA run \
+             under 1 ms is timed as the mean of up to 1000 repeats of its seed). `bound`: \
              refused, N_cyl < 4 f_c a²/π.",
             if config.cpu { "CPU" } else { "wall" },
             config.runs,
