@@ -142,8 +142,10 @@ mod tests {
         };
         let config = KernelConfig {
             temperature: 1e-24,
-            // List spheres that already hold the contacts of the whole window.
-            neighbour_skin: 0.2,
+            // List spheres and envelopes that already hold the contacts of the whole
+            // window (pair predictions stop at the partners' list exits, here the growth
+            // through the skin width).
+            neighbour_skin: 5.0,
             ..KernelConfig::default()
         };
         let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(1);

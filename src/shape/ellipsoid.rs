@@ -1162,6 +1162,7 @@ impl Collidable for Ellipsoid {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::SeedableRng;
 
     fn sample() -> (Ellipsoid, Ellipsoid, Spin, Spin, Vec3, Vec3) {
         let a = Ellipsoid {
@@ -1184,6 +1185,155 @@ mod tests {
             Vec3::new(-0.29, -0.35, -1.14),
             Vec3::new(0.13, 2.18, 0.51),
         )
+    }
+
+    /// Random prolate needles and triaxial ellipsoids with random orientations, spins (fast
+    /// about the long axis, as thermal needles are), velocities and growth.
+    fn random_body(rng: &mut impl Rng) -> (Ellipsoid, Spin, Vec3) {
+        let axes = if rng.gen_bool(0.5) {
+            let r = rng.gen_range(1.5..40.0);
+            Vec3::new(1.0, 1.0 / r, 1.0 / r)
+        } else {
+            Vec3::new(1.0, rng.gen_range(0.2..1.0), rng.gen_range(0.1..0.5))
+        };
+        let shape = Ellipsoid {
+            g: rng.gen_range(0.0..2.0),
+            ..Ellipsoid::new(axes * rng.gen_range(0.5..3.0))
+        };
+        let orientation =
+            UnitQuaternion::from_scaled_axis(Vec3::from_fn(|_, _| rng.gen_range(-3.0..3.0)));
+        let body = Vec3::new(
+            rng.gen_range(-50.0..50.0),
+            rng.gen_range(-3.0..3.0),
+            rng.gen_range(-3.0..3.0),
+        );
+        let spin = Spin {
+            orientation,
+            omega: orientation * body,
+        };
+        (shape, spin, Vec3::from_fn(|_, _| rng.gen_range(-2.0..2.0)))
+    }
+
+    fn random_unit(rng: &mut impl Rng) -> Vec3 {
+        loop {
+            let v = Vec3::from_fn(|_, _| rng.gen_range(-1.0..1.0));
+            if let Some(n) = v.try_normalize(1e-3) {
+                return n;
+            }
+        }
+    }
+
+    #[test]
+    fn an_ellipsoid_stays_in_its_envelope_until_the_exit_time() {
+        // The body at τ lies in E₀ ⊕ B(δ) iff its support function exceeds E₀'s by at most δ
+        // in every direction: checked along random directions at random times before the exit.
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(11);
+        for _ in 0..300 {
+            let (shape, spin, vel) = random_body(&mut rng);
+            let t0 = rng.gen_range(0.0..1.0);
+            let skin = rng.gen_range(0.01..0.5) * shape.scale_at(t0);
+            let envelope = shape.envelope(&spin, t0, skin);
+            // Later, after free flight from the build (the exit is asked again after every
+            // event), but before the first exit time, when the kernel updates the list.
+            let first = envelope_exit(&shape, &spin, &envelope, &Vec3::zeros(), &vel, t0)
+                .expect("a moving body leaves its envelope");
+            let later = rng.gen_range(0.0..1.0) * first;
+            let q = vel * later;
+            let spin_now = Ellipsoid::spin_after(&spin, later);
+            let Some(tau) = envelope_exit(&shape, &spin_now, &envelope, &q, &vel, t0 + later)
+            else {
+                panic!("a moving body leaves its envelope");
+            };
+            for k in 0..=20 {
+                let dt = later + tau * f64::from(k) / 20.0;
+                let rot = Ellipsoid::spin_after(&spin, dt).rotation();
+                let m = shape.shape_matrix(&rot, t0 + dt);
+                for _ in 0..50 {
+                    let n = random_unit(&mut rng);
+                    let h = n.dot(&(vel * dt)) + n.dot(&(m * n)).sqrt();
+                    let h0 = (envelope.root * n).norm();
+                    assert!(h <= h0 + skin * (1.0 + 1e-9), "{h} > {h0} + {skin} at {dt}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn envelopes_said_apart_are_apart_and_far_ones_are_told_apart() {
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(12);
+        let mut apart = 0;
+        for _ in 0..400 {
+            let (a, sa, _) = random_body(&mut rng);
+            let (b, sb, _) = random_body(&mut rng);
+            let (ea, eb) = (
+                a.envelope(&sa, 0.0, rng.gen_range(0.0..0.3)),
+                b.envelope(&sb, 0.0, rng.gen_range(0.0..0.3)),
+            );
+            let reach = a.scale_at(0.0) + b.scale_at(0.0) + ea.skin + eb.skin;
+            let d = random_unit(&mut rng) * rng.gen_range(0.0..1.0) * reach;
+            if envelopes_may_overlap(&ea, &eb, &d) {
+                continue;
+            }
+            apart += 1;
+            // Sampled surface points are at least as far apart as the ellipsoids.
+            let mut nearest = f64::INFINITY;
+            for _ in 0..4000 {
+                let (u, w) = (random_unit(&mut rng), random_unit(&mut rng));
+                let gap = (d + ea.root * u - eb.root * w).norm();
+                nearest = nearest.min(gap);
+            }
+            assert!(
+                nearest > ea.skin + eb.skin,
+                "{nearest} {} {}",
+                ea.skin,
+                eb.skin
+            );
+        }
+        assert!(apart > 50, "only {apart} of 400 pairs told apart");
+    }
+
+    #[test]
+    fn closest_points_of_segments_match_a_scan() {
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(13);
+        for _ in 0..500 {
+            let u = Vec3::from_fn(|_, _| rng.gen_range(-1.0..1.0));
+            let w = if rng.gen_bool(0.2) {
+                u * rng.gen_range(-1.0..1.0) // parallel
+            } else {
+                Vec3::from_fn(|_, _| rng.gen_range(-1.0..1.0))
+            };
+            let d = Vec3::from_fn(|_, _| rng.gen_range(-2.0..2.0));
+            let (s, t) = closest_on_segments(&u, &w, &d);
+            let found = (d + u * s - w * t).norm();
+            let mut best = f64::INFINITY;
+            for i in 0..=200 {
+                for j in 0..=200 {
+                    let (s, t) = (f64::from(i) / 100.0 - 1.0, f64::from(j) / 100.0 - 1.0);
+                    best = best.min((d + u * s - w * t).norm());
+                }
+            }
+            assert!(found <= best + 1e-12, "{found} > {best}");
+        }
+    }
+
+    #[test]
+    fn the_support_curvature_bound_holds_for_needles_spinning_about_their_axis() {
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(14);
+        for _ in 0..300 {
+            let (shape, spin, _) = random_body(&mut rng);
+            let n = random_unit(&mut rng);
+            let h = |tau: f64| {
+                let rot = Ellipsoid::spin_after(&spin, tau).rotation();
+                n.dot(&(shape.shape_matrix(&rot, tau) * n)).sqrt()
+            };
+            let bound = support_curvature_bound(&shape, &spin, shape.scale_at(0.1));
+            let step = 1e-4;
+            for k in 1..1000 {
+                let tau = f64::from(k) * 1e-4;
+                let second = (h(tau + step) - 2.0 * h(tau) + h(tau - step)) / (step * step);
+                assert!(second.abs() <= bound * 1.01 + 1e-3, "{second} > {bound}");
+            }
+        }
     }
 
     #[test]
