@@ -55,6 +55,26 @@ rate = 0.05
 until = { reduced_pressure = 1e5 }
 "#;
 
+/// Needles as long as the box (paper 004, Table 2: prolate R = 20 at N = 175, longest axis
+/// 0.96 of the edge at the end): the kernel tracks periodic images (entries carrying lattice
+/// shifts, self-images) and neighbour envelopes, all of which the checkpoint must restore.
+const IMAGE_SCENE: &str = r#"seed = 4
+[container]
+type = "box"
+size = [10.0, 10.0, 10.0]
+periodic = [true, true, true]
+[particles]
+count = 175
+diameter = 1.0
+packing_fraction = 0.0001
+[particles.ellipsoid]
+aspect_ratios = [20.0, 20.0]
+[[stage]]
+growth = "relative"
+rate = 2.0
+until = { packing_fraction = 0.2 }
+"#;
+
 fn run_ok(args: &[&str]) -> Output {
     let out = densepack(args);
     assert!(
@@ -109,6 +129,11 @@ fn a_run_killed_mid_way_resumes_to_the_same_packing() {
 #[test]
 fn an_ellipsoid_run_killed_mid_way_resumes_to_the_same_packing() {
     kill_and_resume("kill-ellipsoids", ELLIPSOID_SCENE);
+}
+
+#[test]
+fn an_ellipsoid_run_with_periodic_images_resumes_to_the_same_packing() {
+    kill_and_resume("kill-images", IMAGE_SCENE);
 }
 
 /// Runs `scene_text` through; again with a checkpoint at every barrier; again killed with

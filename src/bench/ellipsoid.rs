@@ -416,7 +416,7 @@ pub fn table2(ctx: &StudyContext) -> StudyOutput {
              be an overlap). The characteristic predictor runs on the R ≤ 5 rows only. {}",
             if ctx.quick {
                 "Quick: one seed (the scene's); the characteristic predictor on the R = 2 case \
-                 only; without the prolate R ≥ 20 rows (N ≥ 175, seconds to a minute each)."
+                 only."
             } else {
                 "Three seeds (the scene's, +1, +2): median CPU s, spread = (max − min)/median."
             }
@@ -441,9 +441,6 @@ pub fn table2(ctx: &StudyContext) -> StudyOutput {
         .map(|(_, name)| Series::points(*name, Vec::new()))
         .collect();
     for (case, text, paper_n, paper_s) in cases {
-        if ctx.quick && paper_n >= 175 {
-            continue; // the long prolate needles: full run only
-        }
         let base = Scene::from_toml(text).expect("the shipped ellipsoid scene is valid");
         for (k, (predictor, name)) in PREDICTORS.into_iter().enumerate() {
             // The slower characteristic predictor on the R ≤ 5 cases (quick: the first only).

@@ -25,7 +25,8 @@ pub const MAGIC: &[u8] = b"densepack-checkpoint\n";
 
 /// Version of the checkpoint layout.
 /// 2: event counters gained `prediction_failures`; ellipsoid kernels (with their spins).
-pub const CHECKPOINT_VERSION: u32 = 2;
+/// 3: kernels store their neighbour envelopes (empty for spheres).
+pub const CHECKPOINT_VERSION: u32 = 3;
 
 /// Everything of a checkpoint but the kernel.
 #[derive(Clone, Debug, Serialize, Deserialize)]

@@ -4,7 +4,7 @@
 //! the kernel is synchronised at kernel time 0, every local event list is about to be
 //! cleared and the queue about to be reset. What survives a barrier is stored here
 //! exactly — particles (delayed states at time 0, shapes with their growth), collision
-//! counters, neighbour-list spheres and lists (in their order), the cell grid (with the
+//! counters, neighbour-list spheres, envelopes and lists (in their order), the cell grid (with the
 //! member order of every cell, which decides the order of future neighbour lists), the
 //! particle numbering, the skin, the barrier interval, the elapsed time and the event
 //! counters — so that a kernel rebuilt by [`Edmd::from_snapshot`] processes the same events
@@ -36,6 +36,7 @@ pub struct KernelSnapshot<'a, S: Collidable> {
     counts: Cow<'a, [u32]>,
     list_centre: Cow<'a, [Vec3]>,
     list_radius: Cow<'a, [f64]>,
+    envelopes: Cow<'a, [S::Envelope]>,
     neighbours: Cow<'a, [super::NeighbourList]>,
     grid: Cow<'a, CellGrid>,
     ids: Cow<'a, [u32]>,
@@ -75,6 +76,7 @@ where
             counts: Cow::Borrowed(&self.counts),
             list_centre: Cow::Borrowed(&self.list_centre),
             list_radius: Cow::Borrowed(&self.list_radius),
+            envelopes: Cow::Borrowed(&self.envelopes),
             neighbours: Cow::Borrowed(&self.neighbours),
             grid: Cow::Borrowed(&self.grid),
             ids: Cow::Borrowed(&self.ids),
@@ -116,6 +118,13 @@ where
                 "{name} has {len} entries for {n} particles"
             )));
         }
+        let envelopes = if S::ENVELOPES { n } else { 0 };
+        if snapshot.envelopes.len() != envelopes {
+            return Err(SnapshotError(format!(
+                "envelopes has {} entries, expected {envelopes}",
+                snapshot.envelopes.len()
+            )));
+        }
         let mut seen = vec![false; n];
         for &id in snapshot.ids.iter() {
             match seen.get_mut(id as usize) {
@@ -148,6 +157,9 @@ where
             local: LocalLists::new(n),
             list_centre: snapshot.list_centre.into_owned(),
             list_radius: snapshot.list_radius.into_owned(),
+            envelopes: snapshot.envelopes.into_owned(),
+            // Recomputed when the next interval begins.
+            list_exit: vec![0.0; envelopes],
             neighbours: snapshot.neighbours.into_owned(),
             boundary,
             grid: snapshot.grid.into_owned(),

@@ -88,9 +88,13 @@ pub(super) fn overlapping_shifts(
     own: bool,
     mut f: impl FnMut([i32; 3]),
 ) {
+    // Per axis, only shifts with `|d_k − n_k L_k| < reach` can pass the distance test (one
+    // more on each side against rounding in the division).
     let range = |k: usize| {
         if period[k] > 0.0 {
-            -MAX_SHIFT..=MAX_SHIFT
+            let lo = ((d[k] - reach) / period[k]).ceil() as i32 - 1;
+            let hi = ((d[k] + reach) / period[k]).floor() as i32 + 1;
+            lo.max(-MAX_SHIFT)..=hi.min(MAX_SHIFT)
         } else {
             0..=0
         }
@@ -138,8 +142,10 @@ mod tests {
         };
         let config = KernelConfig {
             temperature: 1e-24,
-            // List spheres that already hold the contacts of the whole window.
-            neighbour_skin: 0.2,
+            // List spheres and envelopes that already hold the contacts of the whole
+            // window (pair predictions stop at the partners' list exits, here the growth
+            // through the skin width).
+            neighbour_skin: 5.0,
             ..KernelConfig::default()
         };
         let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(1);

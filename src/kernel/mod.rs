@@ -219,6 +219,14 @@ pub struct Edmd<S: Collidable, B: Boundary, Q: EventQueue> {
     list_centre: Vec<Vec3>,
     /// Radii of the neighbour-list spheres.
     list_radius: Vec<f64>,
+    /// Neighbour envelopes ([`Collidable::Envelope`]) of the lists, one per particle when
+    /// [`Collidable::ENVELOPES`], else empty.
+    envelopes: Vec<S::Envelope>,
+    /// Kernel time up to which each particle provably stays inside its envelope (its
+    /// list-update event), refreshed by [`Edmd::predict_pairs`]; one per particle when
+    /// [`Collidable::ENVELOPES`], else empty. Pair predictions look no further than the
+    /// earlier of the two: whichever particle updates its list then predicts the pair again.
+    list_exit: Vec<f64>,
     /// Symmetric neighbour lists: `j ∈ neighbours[i] ⇔ i ∈ neighbours[j]`.
     neighbours: Vec<NeighbourList>,
     boundary: B,
@@ -250,7 +258,8 @@ pub struct Edmd<S: Collidable, B: Boundary, Q: EventQueue> {
     skin: f64,
     /// Reused buffer for neighbour-list candidates.
     scratch: Vec<u32>,
-    /// Mean bounding radius at the start of the current barrier interval.
+    /// Mean skin length ([`Collidable::skin_length`]; the bounding radius for spheres) at
+    /// the start of the current barrier interval.
     mean_radius: f64,
     /// [`Stage::wall_growth`] of the running stage: the fraction of each bounding growth
     /// rate that the walls see (1 outside stages that set it).
@@ -347,6 +356,16 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             local: LocalLists::new(n),
             list_centre: particles.iter().map(|p| p.pos).collect(),
             list_radius: vec![0.0; n],
+            envelopes: if S::ENVELOPES {
+                vec![S::Envelope::default(); n]
+            } else {
+                Vec::new()
+            },
+            list_exit: if S::ENVELOPES {
+                vec![0.0; n]
+            } else {
+                Vec::new()
+            },
             neighbours: vec![NeighbourList::new(); n],
             ids: (0..n as u32).collect(),
             queue: Q::with_capacity(n),
@@ -373,8 +392,13 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         kernel.rescale_temperature();
         kernel.update_mean_radius();
         for i in 0..n {
-            let r = kernel.particles[i].shape.bounding_radius(0.0);
-            kernel.list_radius[i] = kernel.list_radius_for(r);
+            let shape = &kernel.particles[i].shape;
+            let (r, l) = (shape.bounding_radius(0.0), shape.skin_length(0.0));
+            kernel.list_radius[i] = kernel.list_radius_for(r, l);
+            if S::ENVELOPES {
+                let p = &kernel.particles[i];
+                kernel.envelopes[i] = p.shape.envelope(&p.spin, 0.0, kernel.list_radius[i] - r);
+            }
         }
         let width = kernel.needed_cell_width(0.0);
         kernel.rebuild_grid(width);
@@ -443,14 +467,15 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.skin
     }
 
-    /// Radius of a neighbour-list sphere for a particle of bounding radius `r`:
-    /// `r + skin·min(r, r̄)` with `r̄` the mean bounding radius. Small particles get a skin
+    /// Radius of a neighbour-list sphere for a particle of bounding radius `r` and skin
+    /// length `l` ([`Collidable::skin_length`], `≤ r`; `r` itself for spheres):
+    /// `r + skin·min(l, l̄)` with `l̄` the mean skin length. Small particles get a skin
     /// proportional to their size; large ones a shell no thicker than that of a typical
     /// particle, so a big particle's list holds the small ones touching its surface, not a
     /// thick layer of them (its list is re-predicted at every one of its collisions).
     #[inline]
-    fn list_radius_for(&self, r: f64) -> f64 {
-        r + self.skin * r.min(self.mean_radius)
+    fn list_radius_for(&self, r: f64, l: f64) -> f64 {
+        r + self.skin * l.min(self.mean_radius)
     }
 
     /// Adapts the skin to the list updates and collisions of the last interval.
@@ -531,7 +556,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             .list_radius
             .iter()
             .fold(0.0_f64, |m, &r| m.max(2.0 * r));
-        current.max(2.0 * self.list_radius_for(0.5 * self.max_diameter(t)))
+        let r = 0.5 * self.max_diameter(t);
+        current.max(2.0 * self.list_radius_for(r, r))
     }
 
     fn update_mean_radius(&mut self) {
@@ -539,7 +565,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let sum: f64 = self
             .particles
             .iter()
-            .map(|p| p.shape.bounding_radius(0.0))
+            .map(|p| p.shape.skin_length(0.0))
             .sum();
         self.mean_radius = sum / n;
     }
@@ -594,6 +620,9 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         permute_in_place(&mut self.counts, &order, &mut visited);
         permute_in_place(&mut self.list_centre, &order, &mut visited);
         permute_in_place(&mut self.list_radius, &order, &mut visited);
+        if S::ENVELOPES {
+            permute_in_place(&mut self.envelopes, &order, &mut visited);
+        }
         permute_in_place(&mut self.ids, &order, &mut visited);
         permute_in_place(&mut self.particles, &order, &mut visited);
         let (events, truncated) = self.local.arrays_mut();
@@ -638,13 +667,15 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         }
     }
 
-    /// Whether the neighbour-list spheres of `i` and `j` overlap.
+    /// Whether the neighbour-list spheres of `i` and `j` overlap, and their envelopes
+    /// (shapes with [`Collidable::ENVELOPES`]).
     #[inline]
     fn lists_overlap(&self, i: usize, j: usize) -> bool {
         let mut d = self.list_centre[i] - self.list_centre[j];
         self.boundary.minimum_image(&mut d);
         let reach = self.list_radius[i] + self.list_radius[j];
         d.norm_squared() < reach * reach
+            && (!S::ENVELOPES || S::envelopes_overlap(&self.envelopes[i], &self.envelopes[j], &d))
     }
 
     /// Builds every neighbour list from the current spheres.
@@ -682,7 +713,13 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.boundary.wrap(&mut self.particles[i].pos);
         let old = std::mem::take(&mut self.neighbours[i]);
         self.list_centre[i] = self.particles[i].pos;
-        self.list_radius[i] = self.list_radius_for(self.particles[i].shape.bounding_radius(t));
+        let shape = &self.particles[i].shape;
+        let (r, l) = (shape.bounding_radius(t), shape.skin_length(t));
+        self.list_radius[i] = self.list_radius_for(r, l);
+        if S::ENVELOPES {
+            let p = &self.particles[i];
+            self.envelopes[i] = p.shape.envelope(&p.spin, t, self.list_radius[i] - r);
+        }
         self.grid.remove(i);
         let cell = self.home_cell(i);
         self.grid.insert(i, cell);
@@ -760,6 +797,11 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         }
         self.queue.reset(0.0, interval, n);
         self.local.clear_all();
+        if S::ENVELOPES {
+            for i in 0..n {
+                self.list_exit[i] = self.list_exit_time(i);
+            }
+        }
         for i in 0..n {
             self.predict_pairs(i, Partners::Above);
             self.predict_own(i);
@@ -778,6 +820,12 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     fn predict_pairs(&mut self, i: usize, partners: Partners) {
         let t = self.time;
         let max_tau = self.barrier_time - t;
+        let exit_i = if S::ENVELOPES {
+            self.list_exit[i] = self.list_exit_time(i);
+            self.list_exit[i]
+        } else {
+            f64::INFINITY
+        };
         let pi = &self.particles[i];
         let (pos_i, vel_i, spin_i, shape_i) =
             (pi.position_at(t), pi.vel, pi.spin_at(t), pi.shape.clone());
@@ -799,8 +847,13 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             let dr = self.separation(i, &pos_i, j, &pj.position_at(t), entry);
             let dv = vel_i - pj.vel;
             let spin_j = pj.spin_at(t);
+            let horizon = if S::ENVELOPES {
+                max_tau.min((exit_i.min(self.list_exit[j]) - t).max(0.0))
+            } else {
+                max_tau
+            };
             if let Some(tau) =
-                S::predict_collision(&shape_i, &pj.shape, &spin_i, &spin_j, &dr, &dv, t, max_tau)
+                S::predict_collision(&shape_i, &pj.shape, &spin_i, &spin_j, &dr, &dv, t, horizon)
             {
                 list.push(LocalEvent::new(
                     t + tau,
@@ -848,15 +901,34 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                     .push(i, LocalEvent::new(t + tau, EventKind::Wall(wall)));
             }
         }
-        let mut q = pos - self.list_centre[i];
-        self.boundary.minimum_image(&mut q);
-        let s = self.list_radius[i] - p.shape.bounding_radius(t);
-        let g = p.shape.bounding_growth_rate();
-        let exit = exit_ball_time(q.norm_squared(), q.dot(&p.vel), p.vel.norm_squared(), s, g);
+        let exit = if S::ENVELOPES {
+            // Refreshed by `predict_pairs(i)`, which precedes every `predict_own(i)`.
+            Some(self.list_exit[i] - t).filter(|tau| tau.is_finite())
+        } else {
+            let mut q = pos - self.list_centre[i];
+            self.boundary.minimum_image(&mut q);
+            let s = self.list_radius[i] - p.shape.bounding_radius(t);
+            let g = p.shape.bounding_growth_rate();
+            exit_ball_time(q.norm_squared(), q.dot(&p.vel), p.vel.norm_squared(), s, g)
+        };
         if let Some(tau) = exit.filter(|&tau| tau <= max_tau) {
             self.local
                 .push(i, LocalEvent::new(t + tau, EventKind::NeighbourList));
         }
+    }
+
+    /// Kernel time up to which particle `i` provably stays inside its envelope
+    /// ([`Collidable::envelope_exit_time`]; `∞` if beyond any window). Shapes with
+    /// [`Collidable::ENVELOPES`] only.
+    fn list_exit_time(&self, i: usize) -> f64 {
+        let t = self.time;
+        let p = &self.particles[i];
+        let mut q = p.position_at(t) - self.list_centre[i];
+        self.boundary.minimum_image(&mut q);
+        let spin = p.spin_at(t);
+        p.shape
+            .envelope_exit_time(&spin, &self.envelopes[i], &q, &p.vel, t)
+            .map_or(f64::INFINITY, |tau| t + tau)
     }
 
     /// Whether wall contacts go through the shape's own plane contacts: the shape and the
@@ -982,6 +1054,10 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.counts[j] = self.counts[j].wrapping_add(1);
         self.local.clear(i);
         self.local.clear(j);
+        if S::ENVELOPES {
+            // `i`'s predictions look no further than `j`'s new list exit.
+            self.list_exit[j] = self.list_exit_time(j);
+        }
         // `j`'s partners load while `i`'s are predicted.
         self.prefetch_partners(j);
         self.predict_pairs(i, Partners::All);
@@ -1106,14 +1182,22 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         needed
     }
 
-    /// Adds to `list_i` (`i`'s new list) every image of `j` whose list sphere overlaps `i`'s,
-    /// and the mirrored entries to `j`'s list; for `j == i`, `i`'s own images, once each.
+    /// Adds to `list_i` (`i`'s new list) every image of `j` whose list sphere (and envelope)
+    /// overlaps `i`'s, and the mirrored entries to `j`'s list; for `j == i`, `i`'s own
+    /// images, once each.
     fn link_images(&mut self, i: usize, j: usize, list_i: &mut NeighbourList) {
         let d = self.list_centre[i] - self.list_centre[j];
         let reach = self.list_radius[i] + self.list_radius[j];
         let period = self.period();
+        let envelopes = &self.envelopes;
         let list_j = &mut self.neighbours[j];
         images::overlapping_shifts(&d, reach, &period, i == j, |n| {
+            if S::ENVELOPES {
+                let image = d - images::translation(n, &period);
+                if !S::envelopes_overlap(&envelopes[i], &envelopes[j], &image) {
+                    return;
+                }
+            }
             let entry = images::encode(j, n);
             list_i.push(entry);
             if i != j {

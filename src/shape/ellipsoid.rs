@@ -217,16 +217,204 @@ impl Ellipsoid {
     }
 }
 
+/// Neighbour envelope of an ellipsoid ([`Collidable::Envelope`]): the ellipsoid `E₀` as it was
+/// when its neighbour list was built, thickened by the skin width `δ`, `E₀ ⊕ B(δ)` (all
+/// points within `δ` of `E₀`). It lies inside the list sphere (`E₀` lies inside the bounding
+/// sphere of radius `r₀`, so `E₀ ⊕ B(δ)` inside the ball of radius `r₀ + δ`).
+///
+/// This is the paper's near-neighbour ellipsoid (§4.2, the neighbourhood `N_i` with semi-axes
+/// scaled by `μ`) made certifiable in the sense of Donev et al. (2005): the region is fixed
+/// when the list is built and the particle provably stays in it until its list-update event
+/// ([`Collidable::envelope_exit_time`]). The `μ`-scaled ellipsoid contains `E₀ ⊕ B(δ)` for
+/// `δ = (μ − 1)·a_min` and no more is certified by a rotation bound, so the thickened
+/// ellipsoid is the tighter region for the same guarantee. `δ` follows the kernel's adaptive
+/// skin, which shrinks near jamming (the paper's `μ → 1`).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Envelope {
+    /// `S₀ = R·diag(a, b, c)·Rᵀ` at the build time: `E₀ = {c₀ + S₀u : |u| ≤ 1}` and the
+    /// support function of `E₀ − c₀` is `|S₀n|`.
+    root: Matrix3<f64>,
+    /// `M₀ = S₀²` (for the Perram–Wertheim separating axis).
+    m: Matrix3<f64>,
+    /// Half of the segment along the longest axis, `(a_max − a_mid)·e_max` (world frame): the
+    /// ellipsoid lies in the capsule of radius `a_mid` around it, so the closest points of two
+    /// such segments give a good trial axis for needles.
+    spine: Vec3,
+    /// Skin width `δ` (length).
+    skin: f64,
+}
+
+impl Default for Envelope {
+    fn default() -> Self {
+        Self {
+            root: Matrix3::zeros(),
+            m: Matrix3::zeros(),
+            spine: Vec3::zeros(),
+            skin: 0.0,
+        }
+    }
+}
+
+impl Ellipsoid {
+    /// The unit symmetry axis (world frame) of a prolate spheroid (one long semi-axis, the
+    /// other two equal) in orientation `spin`; `None` for other shapes.
+    #[inline]
+    fn prolate_axis(&self, spin: &Spin) -> Option<Vec3> {
+        let long = self.axes.imax();
+        let (j, k) = ((long + 1) % 3, (long + 2) % 3);
+        (self.axes[j] == self.axes[k] && self.axes[j] < 1.0)
+            .then(|| spin.orientation * Vec3::ith(long, 1.0))
+    }
+
+    /// `S = R·diag(semi-axes)·Rᵀ` at time `t`: the symmetric square root of the shape matrix.
+    #[inline]
+    fn root_matrix(&self, rot: &Matrix3<f64>, t: f64) -> Matrix3<f64> {
+        rot * Matrix3::from_diagonal(&self.semi_axes(t)) * rot.transpose()
+    }
+}
+
+/// Parameters `(s, t) ∈ [−1, 1]²` of the closest points `p + s·u` and `q + t·w` of two segments
+/// (`d = p − q`): the minimiser of the convex quadratic `|d + s·u − t·w|²`, by clamping the
+/// unconstrained minimiser in `s`, then taking the best clamped `t` for it and the best
+/// clamped `s` for that `t` (exact for segments). Degenerate segments (points) get 0.
+fn closest_on_segments(u: &Vec3, w: &Vec3, d: &Vec3) -> (f64, f64) {
+    let (uu, uw, ww) = (u.dot(u), u.dot(w), w.dot(w));
+    let (ud, wd) = (u.dot(d), w.dot(d));
+    let best_s = |t: f64| {
+        if uu > 0.0 {
+            ((uw * t - ud) / uu).clamp(-1.0, 1.0)
+        } else {
+            0.0
+        }
+    };
+    let best_t = |s: f64| {
+        if ww > 0.0 {
+            ((uw * s + wd) / ww).clamp(-1.0, 1.0)
+        } else {
+            0.0
+        }
+    };
+    let det = uu * ww - uw * uw;
+    let s = if det > 1e-12 * uu * ww {
+        ((uw * wd - ww * ud) / det).clamp(-1.0, 1.0)
+    } else {
+        0.0
+    };
+    let t = best_t(s);
+    (best_s(t), t)
+}
+
+/// Whether two envelopes whose centres are `d = c₀_a − c₀_b` apart may overlap.
+///
+/// For any unit `n`, `E_a ⊕ B(δ_a)` and `E_b ⊕ B(δ_b)` are disjoint if
+/// `n·(c₀_a − c₀_b) − |S_a n| − |S_b n| > δ_a + δ_b` (the plane normal to `n` separates them:
+/// support functions), so the test is certified whichever axes are tried, and only the
+/// length of the lists depends on their choice. Two are: the line joining the closest
+/// points of the spines (the long axes; for needles nearly the common normal, for
+/// spheroids of low aspect ratio nearly the centre line), then the Perram–Wertheim
+/// separating axis of the two ellipsoids (a few Newton steps). A margin of `10⁻¹²` of the
+/// lengths involved covers rounding.
+fn envelopes_may_overlap(a: &Envelope, b: &Envelope, d: &Vec3) -> bool {
+    let reach = a.skin + b.skin;
+    let separated = |n: &Vec3| {
+        let (ha, hb) = ((a.root * n).norm(), (b.root * n).norm());
+        let along = n.dot(d);
+        along - ha - hb > reach + 1e-12 * (along.abs() + ha + hb + reach)
+    };
+    let (s, t) = closest_on_segments(&a.spine, &b.spine, d);
+    if let Some(n) = (d + a.spine * s - b.spine * t).try_normalize(0.0) {
+        if separated(&n) {
+            return false;
+        }
+    }
+    // `pw_maximise` takes `r = c_b − c_a` and gives an axis from a to b.
+    let Some((_, x)) = pw_maximise(&a.m, &b.m, &-d, 0.5, 12, 1e-6) else {
+        return true;
+    };
+    match x.try_normalize(0.0) {
+        Some(n) => !separated(&-n),
+        None => true,
+    }
+}
+
+/// Bound of `‖[Ω, S]‖₂ / s` (`Ω` the cross-product matrix of `ω`, `S` the root matrix, `s` the
+/// scale): the rate at which rotation changes `S`, per unit scale. In the body frame
+/// `[Ω, S] = s·R[Ω_b, D]Rᵀ` with `ω_b = Rᵀω` (constant in free flight: the body turns about
+/// `ω`), a symmetric matrix with zero diagonal and entries `±ω_l(d_j − d_k)` (`{j, k, l}` =
+/// `{0, 1, 2}`); it is traceless, so its spectral norm is at most `√(2/3)` of its Frobenius
+/// norm `√(2Σ_l ω_l²(d_j − d_k)²)`. Also at most `|ω|(1 − e)` (`[Ω, S] = [Ω, S − mI]`, `m` the
+/// mid-range of the semi-axes); the smaller is returned. Spin about a symmetry axis costs
+/// nothing.
+fn commutator_bound(shape: &Ellipsoid, spin: &Spin) -> f64 {
+    let body = spin.orientation.inverse_transform_vector(&spin.omega);
+    let d = shape.axes;
+    let sum = (0..3)
+        .map(|l| {
+            let (j, k) = ((l + 1) % 3, (l + 2) % 3);
+            (body[l] * (d[j] - d[k])).powi(2)
+        })
+        .sum::<f64>();
+    let traceless = (4.0 / 3.0 * sum).sqrt();
+    traceless.min(spin.omega.norm() * (1.0 - d.min()))
+}
+
+/// Time up to which an ellipsoid stays inside its envelope (see [`Envelope`]).
+///
+/// With `S(t) = R(t)·diag(a(t))·R(t)ᵀ` the body is `{c(t) + S(t)u : |u| ≤ 1}`, and its support
+/// function exceeds that of `E₀` by at most `|c(t) − c₀| + ‖S(t) − S₀‖₂` in every direction
+/// (`|S n| − |S₀n| ≤ |(S − S₀)n|`), so it lies in `E₀ ⊕ B(D(t))` with
+/// `D(t) = |c(t) − c₀| + ‖S(t) − S₀‖_F` (Frobenius ≥ spectral norm). In free flight
+/// `Ṡ = [Ω, S] + R·ȧ·Rᵀ` (`Ω` the cross-product matrix of the constant `ω`); as
+/// `‖[Ω, S]‖₂ ≤ κ·s` ([`commutator_bound`], `s` the scale) and `‖R·ȧ·Rᵀ‖₂ = |g|`. Hence,
+/// `τ` later, `D ≤ D(t) + (|v| + |g| + κ·s(t))·τ + ½κ|g|·τ²`, and the particle stays inside
+/// until this bound reaches `δ` (the returned time; 0 if it already has).
+fn envelope_exit(
+    shape: &Ellipsoid,
+    spin: &Spin,
+    envelope: &Envelope,
+    q: &Vec3,
+    vel: &Vec3,
+    t: f64,
+) -> Option<f64> {
+    let drift = q.norm() + (shape.root_matrix(&spin.rotation(), t) - envelope.root).norm();
+    let room = envelope.skin - drift;
+    if room <= 0.0 {
+        return Some(0.0);
+    }
+    let turn = commutator_bound(shape, spin);
+    let b = vel.norm() + shape.g.abs() + turn * shape.scale_at(t);
+    let a = 0.5 * turn * shape.g.abs();
+    // Positive root of a·τ² + b·τ − room, free of cancellation.
+    (b > 0.0).then(|| 2.0 * room / (b + (b * b + 4.0 * a * room).sqrt()))
+}
+
 /// Bound of `|d²h/dτ²|` for the support function `h(n, τ)` of an ellipsoid along a fixed unit
-/// `n`, while it rotates at `|ω|` and its scale grows at `g` up to `s_max`.
+/// `n`, while it rotates at the constant `ω` of `spin` and its scale grows at `g` up to
+/// `s_max`.
 ///
 /// With `h = s·φ(u)`, `φ(u) = |D u|` (`D` = relative semi-axes, largest 1, smallest `e`) and
 /// `u = Rᵀn` turning at `|u'| ≤ |ω|`, `|u''| ≤ |ω|²`: `|∇φ| ≤ 1`, `‖∇²φ‖ ≤ 1/e`, hence
 /// `|φ''| ≤ |ω|²(1 + 1/e)` and `|h''| ≤ 2g|ω| + s_max|ω|²(1 + 1/e)`.
+///
+/// A prolate spheroid (`D = diag(1, e, e)` up to order) is blind to its spin about its axis
+/// `ê`: `φ = ψ(x)`, `x = n·ê`, `ψ(x) = √(e² + (1 − e²)x²)`, with `|ψ'| ≤ 1`, `0 ≤ ψ'' ≤ 1/e`.
+/// As `ê' = ω × ê`, `ê'' = ω × (ω × ê)`, `|x'| ≤ ω⊥ = |ω × ê|` (constant in free flight) and
+/// `|x''| ≤ |ω|ω⊥`, so `|φ''| ≤ ω⊥²/e + |ω|ω⊥` and `|h''| ≤ 2gω⊥ + s_max(ω⊥²/e + |ω|ω⊥)`; the
+/// smaller bound is returned. (Thermal needles spin fast about their axis: `I_∥ ≪ I_⊥`.)
 #[inline]
-pub fn support_curvature_bound(shape: &Ellipsoid, omega: f64, s_max: f64) -> f64 {
+pub fn support_curvature_bound(shape: &Ellipsoid, spin: &Spin, s_max: f64) -> f64 {
     let e = shape.axes.min();
-    2.0 * shape.g.abs() * omega + s_max * omega * omega * (1.0 + 1.0 / e)
+    let omega = spin.omega.norm();
+    let general = 2.0 * shape.g.abs() * omega + s_max * omega * omega * (1.0 + 1.0 / e);
+    match shape.prolate_axis(spin) {
+        Some(axis) => {
+            let across = spin.omega.cross(&axis).norm();
+            let prolate =
+                2.0 * shape.g.abs() * across + s_max * (across * across / e + omega * across);
+            general.min(prolate)
+        }
+        None => general,
+    }
 }
 
 /// The pose of one ellipsoid at a trial time: centre offset, rotation and `M`.
@@ -467,8 +655,8 @@ impl PairMotion<'_> {
     /// Bound of the second derivative of the projected gap over `[t, t + max_tau]`.
     fn curvature_bound(&self, max_tau: f64) -> f64 {
         let end = self.t + max_tau;
-        support_curvature_bound(self.a, self.sa.omega.norm(), self.a.scale_at(end))
-            + support_curvature_bound(self.b, self.sb.omega.norm(), self.b.scale_at(end))
+        support_curvature_bound(self.a, self.sa, self.a.scale_at(end))
+            + support_curvature_bound(self.b, self.sb, self.b.scale_at(end))
     }
 
     /// `η1` of the characteristic polynomial at `t + τ` and the configuration (Table 1).
@@ -741,6 +929,39 @@ impl Collidable for Ellipsoid {
     const ROTATES: bool = true;
     const SHAPED_PLANE_CONTACT: bool = true;
     const PERIODIC_IMAGES: bool = true;
+    type Envelope = Envelope;
+    const ENVELOPES: bool = true;
+
+    #[inline]
+    fn envelope(&self, spin: &Spin, t: f64, skin: f64) -> Envelope {
+        let rot = spin.rotation();
+        let axes = self.semi_axes(t);
+        let long = axes.imax();
+        let mid = axes.sum() - axes.max() - axes.min();
+        Envelope {
+            root: self.root_matrix(&rot, t),
+            m: self.shape_matrix(&rot, t),
+            spine: rot.column(long) * (axes[long] - mid),
+            skin,
+        }
+    }
+
+    #[inline]
+    fn envelopes_overlap(a: &Envelope, b: &Envelope, d: &Vec3) -> bool {
+        envelopes_may_overlap(a, b, d)
+    }
+
+    #[inline]
+    fn envelope_exit_time(
+        &self,
+        spin: &Spin,
+        envelope: &Envelope,
+        q: &Vec3,
+        vel: &Vec3,
+        t: f64,
+    ) -> Option<f64> {
+        envelope_exit(self, spin, envelope, q, vel, t)
+    }
 
     fn self_image_impulse(&self, spin: &mut Spin, dr: &Vec3, t: f64, mass: f64) -> Vec3 {
         ellipsoid_self_image_impulse(self, spin, dr, t, mass)
@@ -753,6 +974,14 @@ impl Collidable for Ellipsoid {
     #[inline]
     fn bounding_radius(&self, t: f64) -> f64 {
         self.scale_at(t)
+    }
+
+    /// `√(a_max·a_min)`: the lists of needles grow with the thickness of the envelope and
+    /// their updates with the rotation of the tips (`∝ a_max`), so the best skin width
+    /// scales like the geometric mean of the two (BENCHMARKS.md, "neighbour envelopes").
+    #[inline]
+    fn skin_length(&self, t: f64) -> f64 {
+        self.scale_at(t) * self.axes.min().sqrt()
     }
 
     #[inline]
@@ -879,8 +1108,7 @@ impl Collidable for Ellipsoid {
         if start > max_tau {
             return None;
         }
-        let curvature =
-            support_curvature_bound(self, spin.omega.norm(), self.scale_at(t + max_tau));
+        let curvature = support_curvature_bound(self, spin, self.scale_at(t + max_tau));
         let tolerance = self.contact_tolerance * self.min_semi_axis(t);
         let mut tau = start;
         for _ in 0..MAX_STEPS {
@@ -934,6 +1162,7 @@ impl Collidable for Ellipsoid {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::SeedableRng;
 
     fn sample() -> (Ellipsoid, Ellipsoid, Spin, Spin, Vec3, Vec3) {
         let a = Ellipsoid {
@@ -956,6 +1185,155 @@ mod tests {
             Vec3::new(-0.29, -0.35, -1.14),
             Vec3::new(0.13, 2.18, 0.51),
         )
+    }
+
+    /// Random prolate needles and triaxial ellipsoids with random orientations, spins (fast
+    /// about the long axis, as thermal needles are), velocities and growth.
+    fn random_body(rng: &mut impl Rng) -> (Ellipsoid, Spin, Vec3) {
+        let axes = if rng.gen_bool(0.5) {
+            let r = rng.gen_range(1.5..40.0);
+            Vec3::new(1.0, 1.0 / r, 1.0 / r)
+        } else {
+            Vec3::new(1.0, rng.gen_range(0.2..1.0), rng.gen_range(0.1..0.5))
+        };
+        let shape = Ellipsoid {
+            g: rng.gen_range(0.0..2.0),
+            ..Ellipsoid::new(axes * rng.gen_range(0.5..3.0))
+        };
+        let orientation =
+            UnitQuaternion::from_scaled_axis(Vec3::from_fn(|_, _| rng.gen_range(-3.0..3.0)));
+        let body = Vec3::new(
+            rng.gen_range(-50.0..50.0),
+            rng.gen_range(-3.0..3.0),
+            rng.gen_range(-3.0..3.0),
+        );
+        let spin = Spin {
+            orientation,
+            omega: orientation * body,
+        };
+        (shape, spin, Vec3::from_fn(|_, _| rng.gen_range(-2.0..2.0)))
+    }
+
+    fn random_unit(rng: &mut impl Rng) -> Vec3 {
+        loop {
+            let v = Vec3::from_fn(|_, _| rng.gen_range(-1.0..1.0));
+            if let Some(n) = v.try_normalize(1e-3) {
+                return n;
+            }
+        }
+    }
+
+    #[test]
+    fn an_ellipsoid_stays_in_its_envelope_until_the_exit_time() {
+        // The body at τ lies in E₀ ⊕ B(δ) iff its support function exceeds E₀'s by at most δ
+        // in every direction: checked along random directions at random times before the exit.
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(11);
+        for _ in 0..300 {
+            let (shape, spin, vel) = random_body(&mut rng);
+            let t0 = rng.gen_range(0.0..1.0);
+            let skin = rng.gen_range(0.01..0.5) * shape.scale_at(t0);
+            let envelope = shape.envelope(&spin, t0, skin);
+            // Later, after free flight from the build (the exit is asked again after every
+            // event), but before the first exit time, when the kernel updates the list.
+            let first = envelope_exit(&shape, &spin, &envelope, &Vec3::zeros(), &vel, t0)
+                .expect("a moving body leaves its envelope");
+            let later = rng.gen_range(0.0..1.0) * first;
+            let q = vel * later;
+            let spin_now = Ellipsoid::spin_after(&spin, later);
+            let Some(tau) = envelope_exit(&shape, &spin_now, &envelope, &q, &vel, t0 + later)
+            else {
+                panic!("a moving body leaves its envelope");
+            };
+            for k in 0..=20 {
+                let dt = later + tau * f64::from(k) / 20.0;
+                let rot = Ellipsoid::spin_after(&spin, dt).rotation();
+                let m = shape.shape_matrix(&rot, t0 + dt);
+                for _ in 0..50 {
+                    let n = random_unit(&mut rng);
+                    let h = n.dot(&(vel * dt)) + n.dot(&(m * n)).sqrt();
+                    let h0 = (envelope.root * n).norm();
+                    assert!(h <= h0 + skin * (1.0 + 1e-9), "{h} > {h0} + {skin} at {dt}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn envelopes_said_apart_are_apart_and_far_ones_are_told_apart() {
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(12);
+        let mut apart = 0;
+        for _ in 0..400 {
+            let (a, sa, _) = random_body(&mut rng);
+            let (b, sb, _) = random_body(&mut rng);
+            let (ea, eb) = (
+                a.envelope(&sa, 0.0, rng.gen_range(0.0..0.3)),
+                b.envelope(&sb, 0.0, rng.gen_range(0.0..0.3)),
+            );
+            let reach = a.scale_at(0.0) + b.scale_at(0.0) + ea.skin + eb.skin;
+            let d = random_unit(&mut rng) * rng.gen_range(0.0..1.0) * reach;
+            if envelopes_may_overlap(&ea, &eb, &d) {
+                continue;
+            }
+            apart += 1;
+            // Sampled surface points are at least as far apart as the ellipsoids.
+            let mut nearest = f64::INFINITY;
+            for _ in 0..4000 {
+                let (u, w) = (random_unit(&mut rng), random_unit(&mut rng));
+                let gap = (d + ea.root * u - eb.root * w).norm();
+                nearest = nearest.min(gap);
+            }
+            assert!(
+                nearest > ea.skin + eb.skin,
+                "{nearest} {} {}",
+                ea.skin,
+                eb.skin
+            );
+        }
+        assert!(apart > 50, "only {apart} of 400 pairs told apart");
+    }
+
+    #[test]
+    fn closest_points_of_segments_match_a_scan() {
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(13);
+        for _ in 0..500 {
+            let u = Vec3::from_fn(|_, _| rng.gen_range(-1.0..1.0));
+            let w = if rng.gen_bool(0.2) {
+                u * rng.gen_range(-1.0..1.0) // parallel
+            } else {
+                Vec3::from_fn(|_, _| rng.gen_range(-1.0..1.0))
+            };
+            let d = Vec3::from_fn(|_, _| rng.gen_range(-2.0..2.0));
+            let (s, t) = closest_on_segments(&u, &w, &d);
+            let found = (d + u * s - w * t).norm();
+            let mut best = f64::INFINITY;
+            for i in 0..=200 {
+                for j in 0..=200 {
+                    let (s, t) = (f64::from(i) / 100.0 - 1.0, f64::from(j) / 100.0 - 1.0);
+                    best = best.min((d + u * s - w * t).norm());
+                }
+            }
+            assert!(found <= best + 1e-12, "{found} > {best}");
+        }
+    }
+
+    #[test]
+    fn the_support_curvature_bound_holds_for_needles_spinning_about_their_axis() {
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(14);
+        for _ in 0..300 {
+            let (shape, spin, _) = random_body(&mut rng);
+            let n = random_unit(&mut rng);
+            let h = |tau: f64| {
+                let rot = Ellipsoid::spin_after(&spin, tau).rotation();
+                n.dot(&(shape.shape_matrix(&rot, tau) * n)).sqrt()
+            };
+            let bound = support_curvature_bound(&shape, &spin, shape.scale_at(0.1));
+            let step = 1e-4;
+            for k in 1..1000 {
+                let tau = f64::from(k) * 1e-4;
+                let second = (h(tau + step) - 2.0 * h(tau) + h(tau - step)) / (step * step);
+                assert!(second.abs() <= bound * 1.01 + 1e-3, "{second} > {bound}");
+            }
+        }
     }
 
     #[test]

@@ -16,8 +16,8 @@ mod sphere;
 
 pub use ellipsoid::{
     contact_point_and_normal, ellipsoid_pair_impulse, ellipsoid_self_image_impulse,
-    predict_ellipsoid_pair, prediction_failures, support_curvature_bound, Ellipsoid, Predictor,
-    Spin, CONTACT_TOLERANCE, MAX_CONTACT_TOLERANCE, MAX_STEPS,
+    predict_ellipsoid_pair, prediction_failures, support_curvature_bound, Ellipsoid, Envelope,
+    Predictor, Spin, CONTACT_TOLERANCE, MAX_CONTACT_TOLERANCE, MAX_STEPS,
 };
 pub use sphere::{predict_sphere_sphere, Sphere};
 
@@ -83,6 +83,58 @@ pub trait Collidable: Clone + Send + Sync + 'static {
     /// the box) compiles image handling out of the kernel.
     const PERIODIC_IMAGES: bool = false;
 
+    /// What a particle's neighbour *envelope* remembers of the particle when its list was
+    /// built (`()` for shapes whose envelope is the kernel's neighbour-list sphere).
+    ///
+    /// The kernel gives every particle a neighbour-list sphere (centre `c₀`, radius
+    /// `R = r₀ + δ`, `r₀` the bounding radius when the list was built, `δ` the skin width)
+    /// and keeps the particle inside it until its list-update event. A shape with
+    /// [`Collidable::ENVELOPES`] keeps it inside a tighter region that lies within that
+    /// sphere (its *envelope*) instead, and two particles are neighbours only if their
+    /// spheres and their envelopes overlap. Two particles outside each other's envelopes
+    /// cannot touch before one of them updates its list.
+    type Envelope: Copy
+        + Default
+        + std::fmt::Debug
+        + Send
+        + Sync
+        + serde::Serialize
+        + serde::de::DeserializeOwned
+        + 'static;
+    /// Whether neighbour lists are filtered by [`Collidable::envelopes_overlap`] (with
+    /// `false`, the sphere, the filter and the envelope array compile out of the kernel).
+    const ENVELOPES: bool = false;
+
+    /// The envelope of a particle at kernel time `t` with rotational state `spin` at `t`,
+    /// centred where the particle is (the list centre) with skin width `skin` (length,
+    /// `R − r₀` of its neighbour-list sphere). It must lie inside the list sphere.
+    #[inline]
+    fn envelope(&self, _spin: &Self::Spin, _t: f64, _skin: f64) -> Self::Envelope {
+        Self::Envelope::default()
+    }
+    /// Whether envelopes `a` and `b` whose centres are `d = c₀_a − c₀_b` apart (the image
+    /// the kernel considers) may overlap. May answer `true` for disjoint envelopes (a longer
+    /// list), never `false` for overlapping ones.
+    #[inline]
+    fn envelopes_overlap(_a: &Self::Envelope, _b: &Self::Envelope, _d: &Vec3) -> bool {
+        true
+    }
+    /// Time `τ ≥ 0` after `t` up to which the particle provably stays inside its envelope
+    /// (and hence its list sphere), or `None` if it stays inside beyond any window.
+    /// `q = c(t) − c₀` (minimum image), `vel` its velocity, `spin` its rotational state at
+    /// `t`. Only called when [`Collidable::ENVELOPES`] (the kernel otherwise computes when the
+    /// bounding sphere leaves the list sphere, [`exit_ball_time`]).
+    fn envelope_exit_time(
+        &self,
+        _spin: &Self::Spin,
+        _envelope: &Self::Envelope,
+        _q: &Vec3,
+        _vel: &Vec3,
+        _t: f64,
+    ) -> Option<f64> {
+        unreachable!("only shapes with ENVELOPES have envelope events")
+    }
+
     /// Numerical failures of this shape's predictions on the current thread so far (a
     /// monotone counter; a prediction that gave up and answered conservatively). The kernel
     /// adds what its intervals contribute to `EventCounts::prediction_failures`. Exact
@@ -94,6 +146,12 @@ pub trait Collidable: Clone + Send + Sync + 'static {
 
     /// Radius of a sphere around the centre that contains the particle at time `t`.
     fn bounding_radius(&self, t: f64) -> f64;
+    /// Length the kernel's neighbour-list skin is relative to, at time `t` (at most the
+    /// bounding radius): the skin width is `skin·min(l, l̄)`. Default: the bounding radius.
+    #[inline]
+    fn skin_length(&self, t: f64) -> f64 {
+        self.bounding_radius(t)
+    }
     /// Rate of change of [`Collidable::bounding_radius`] (length/time).
     fn bounding_growth_rate(&self) -> f64;
     /// Volume at time `t`.

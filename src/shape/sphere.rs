@@ -65,6 +65,7 @@ pub fn predict_sphere_sphere(
 
 impl Collidable for Sphere {
     type Spin = ();
+    type Envelope = ();
 
     #[inline]
     fn bounding_radius(&self, t: f64) -> f64 {
