@@ -797,10 +797,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         }
         self.queue.reset(0.0, interval, n);
         self.local.clear_all();
-        if S::ENVELOPES {
-            for i in 0..n {
-                self.list_exit[i] = self.list_exit_time(i);
-            }
+        for i in 0..n {
+            self.refresh_list_exit(i);
         }
         for i in 0..n {
             self.predict_pairs(i, Partners::Above);
@@ -820,8 +818,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     fn predict_pairs(&mut self, i: usize, partners: Partners) {
         let t = self.time;
         let max_tau = self.barrier_time - t;
+        // Refreshed by the caller ([`Self::refresh_list_exit`]).
         let exit_i = if S::ENVELOPES {
-            self.list_exit[i] = self.list_exit_time(i);
             self.list_exit[i]
         } else {
             f64::INFINITY
@@ -902,7 +900,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             }
         }
         let exit = if S::ENVELOPES {
-            // Refreshed by `predict_pairs(i)`, which precedes every `predict_own(i)`.
+            // Refreshed before every prediction pass of `i` ([`Self::refresh_list_exit`]).
             Some(self.list_exit[i] - t).filter(|tau| tau.is_finite())
         } else {
             let mut q = pos - self.list_centre[i];
@@ -914,6 +912,16 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         if let Some(tau) = exit.filter(|&tau| tau <= max_tau) {
             self.local
                 .push(i, LocalEvent::new(t + tau, EventKind::NeighbourList));
+        }
+    }
+
+    /// Recomputes `i`'s list exit ([`Self::list_exit_time`]) before a prediction pass of `i`:
+    /// once per pass, not again for a partner whose exit was refreshed earlier in the event.
+    /// Nothing for shapes without [`Collidable::ENVELOPES`].
+    #[inline]
+    fn refresh_list_exit(&mut self, i: usize) {
+        if S::ENVELOPES {
+            self.list_exit[i] = self.list_exit_time(i);
         }
     }
 
@@ -958,6 +966,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     fn reschedule(&mut self, i: usize) {
         if self.local.exhausted(i) {
             self.local.clear(i);
+            self.refresh_list_exit(i);
             self.predict_pairs(i, Partners::All);
             self.predict_own(i);
             self.counters.repredictions += 1;
@@ -1054,10 +1063,9 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.counts[j] = self.counts[j].wrapping_add(1);
         self.local.clear(i);
         self.local.clear(j);
-        if S::ENVELOPES {
-            // `i`'s predictions look no further than `j`'s new list exit.
-            self.list_exit[j] = self.list_exit_time(j);
-        }
+        // Both before the predictions: `i`'s look no further than `j`'s new list exit.
+        self.refresh_list_exit(i);
+        self.refresh_list_exit(j);
         // `j`'s partners load while `i`'s are predicted.
         self.prefetch_partners(j);
         self.predict_pairs(i, Partners::All);
@@ -1095,6 +1103,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     fn predict_changed(&mut self, i: usize) {
         self.counts[i] = self.counts[i].wrapping_add(1);
         self.local.clear(i);
+        self.refresh_list_exit(i);
         self.predict_pairs(i, Partners::All);
         self.predict_own(i);
         self.reschedule(i);
@@ -1211,6 +1220,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         // The trajectory is unchanged, but the new neighbours need predictions; the wall
         // event is recomputed with them.
         self.local.clear(i);
+        self.refresh_list_exit(i);
         self.predict_pairs(i, Partners::All);
         self.predict_own(i);
         self.reschedule(i);
@@ -1220,6 +1230,11 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
 
 /// Hints the processor to load the cache lines of `value` (a no-op where there is no
 /// prefetch instruction). Written here: no maintained crate offers a portable prefetch.
+///
+/// One hint per 64 bytes from the start, plus one for the last byte: a value that does not
+/// start on a line boundary touches one line more than its size suggests. The count is a
+/// compile-time constant, so the hints unroll without a branch (counting the lines the
+/// address actually touches costs a data-dependent loop per partner).
 #[inline(always)]
 fn prefetch<T>(value: &T) {
     #[cfg(target_arch = "x86_64")]
@@ -1232,8 +1247,8 @@ fn prefetch<T>(value: &T) {
             unsafe { _mm_prefetch::<_MM_HINT_T0>(start.wrapping_add(offset)) };
             offset += 64;
         }
-        // The last line too when `value` straddles one more line than its size suggests.
         let last = start.wrapping_add(std::mem::size_of::<T>().saturating_sub(1));
+        // SAFETY: as above.
         unsafe { _mm_prefetch::<_MM_HINT_T0>(last) };
     }
     #[cfg(not(target_arch = "x86_64"))]
