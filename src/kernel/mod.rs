@@ -543,6 +543,14 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         mass_of(self.config.mass, &p.shape, t, self.reference_volume)
     }
 
+    /// Smallest bounding diameter at kernel time `t` (length units).
+    fn min_diameter(&self, t: f64) -> f64 {
+        self.particles
+            .iter()
+            .map(|p| 2.0 * p.shape.bounding_radius(t))
+            .fold(f64::INFINITY, f64::min)
+    }
+
     fn max_diameter(&self, t: f64) -> f64 {
         self.particles
             .iter()
