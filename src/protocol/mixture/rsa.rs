@@ -30,8 +30,10 @@
 //!   The accepted body keeps its law (uniform over the free configurations); the attempt
 //!   limit counts the uniform draws over the box each drawn centre stands for, so it means
 //!   what it meant without the map. A body with no live voxel left is stuck at once.
-//!   The map is built sooner when it is small (one candidate per 64 voxels, at least 256
-//!   rejections), and while it has at most 4096 live voxels it is refined (voxels halved,
+//!   The map is built sooner when it is cheap, after about half its cost in rejections
+//!   (one per 64 voxels of the box and one per 50 voxels the placed bodies' kills visit,
+//!   at least 64 rejections; once a start has got stuck, as early as the box's voxels
+//!   allow), and while it has at most 4096 live voxels it is refined (voxels halved,
 //!   at most 6 times) after as many further rejections as it has live voxels (at least
 //!   64): the dead test is sharper for narrower voxels, so saturated starts are proven
 //!   jammed, and the last free pockets found, in a few thousand candidates instead of
