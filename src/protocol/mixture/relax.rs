@@ -18,7 +18,12 @@
 //!   the Berendsen coefficient `γ_Ber = α_Ber (E_kin − ½ N T_Ber)` always on and the
 //!   Nosé–Hoover variable `γ̇_NH = α_NH (E_kin − ½ N T_NH)` switched on when the relaxation
 //!   stagnates (no new lowest energy for `stagnation_steps` steps) and off again once the
-//!   energy falls below half of the value at which it was switched on. `N = 3 n_s + 5 n_c`;
+//!   energy falls below half of the value at which it was switched on. At switch-on `γ_NH`
+//!   starts at `−β` (the thermostat alone sets the friction) and, if the bodies are
+//!   colder than `T_NH` (a configuration at rest in a force balance), their velocities are
+//!   drawn at `T_NH` in random directions: Eq. (5) alone reheats a body at rest only once
+//!   `γ_NH` has fallen below `−β`, which took ~28 000 steps in the 10 + 10, a = 3,
+//!   f_s 0.15, f_c 0.35 cell. `N = 3 n_s + 5 n_c`;
 //!   `E_kin = Σ ½ m v² + Σ ½ (m ‖l‖²/6) ω²` measured in units of `ℓ²` with `ℓ` the smallest
 //!   body radius, so the temperatures are dimensionless.
 //! * **Energy rescaling (Fig. 6).** The potential energy is the sum of squared force norms
@@ -44,7 +49,8 @@ use super::{random_direction, BodySize, MixtureError, PeriodicPairs, Rve};
 use crate::boundary::{Boundary, PeriodicBox};
 use crate::geometry::cylinder::{for_each_contact, Shape};
 use crate::shape::Vec3;
-use rand::Rng;
+use rand::{Rng, SeedableRng};
+use rand_xoshiro::Xoshiro256PlusPlus;
 use std::time::{Duration, Instant};
 
 /// Parameters of the relaxer (lengths in units of the smallest body radius `ℓ`, mass 1).
@@ -498,9 +504,37 @@ pub fn relax(rve: &mut Rve, settings: &RelaxSettings) -> Result<RelaxReport, Rel
         match nose_hoover {
             None if since_best >= settings.stagnation_steps => {
                 nose_hoover = Some(best_energy);
-                gamma_nh = 0.0;
+                // The friction starts where it cancels the viscous damping, so the
+                // thermostat holds `T_NH` from the first step rather than after
+                // `β / (α_NH ½ N T_NH)` time units of heating (measured: 28 000 steps).
+                gamma_nh = -settings.damping;
                 activations += 1;
                 since_best = 0;
+                // A configuration stuck in a force balance comes to rest (E_kin decays as
+                // exp(−2β t): ~10⁻⁹⁵ after 2000 steps), and the multiplicative γ_NH of
+                // Eq. (5) cannot reheat it until γ_NH has fallen far below zero (measured:
+                // ~28 000 steps). Start it at its target temperature instead: random
+                // directions, each degree of freedom at `T_NH` (seeded by the activation
+                // count, so a run stays deterministic).
+                let target = 0.5 * dof * settings.nose_hoover_temperature;
+                if kinetic(&vel, &omega) < target {
+                    let mut rng = Xoshiro256PlusPlus::seed_from_u64(u64::from(activations));
+                    let t = settings.nose_hoover_temperature * ell2;
+                    for i in 0..n {
+                        vel[i] = random_direction(&mut rng) * (3.0 * t).sqrt();
+                        if let Shape::Cylinder(cyl) = &rve.bodies[i] {
+                            let u = cyl.axis();
+                            let w = random_direction(&mut rng);
+                            let w = w - u * w.dot(&u);
+                            let norm = w.norm();
+                            omega[i] = if norm > 1e-3 {
+                                w * ((2.0 * t * inv_inertia[i]).sqrt() / norm)
+                            } else {
+                                Vec3::zeros()
+                            };
+                        }
+                    }
+                }
             }
             Some(at) if load.energy <= 0.5 * at => {
                 nose_hoover = None;
