@@ -337,25 +337,41 @@ fn envelopes_may_overlap(a: &Envelope, b: &Envelope, d: &Vec3) -> bool {
     }
 }
 
+/// Largest eigenvalue magnitude (the spectral norm) of a symmetric 3×3 matrix, rounded up:
+/// the closed-form (trigonometric) eigenvalues of `A = qI + pB` (`q = tr A / 3`,
+/// `p² = tr (A − qI)² / 6`, `det B = 2 cos 3φ`), with a margin of `10⁻⁶·(|q| + p)` against
+/// rounding (near a double eigenvalue `det B / 2` is within rounding of ±1, where `acos`
+/// amplifies an error `ε` to `√ε`: eigenvalues off by ~`10⁻⁸·p`), never above the Frobenius
+/// norm (itself a bound).
+fn symmetric_spectral_norm(a: &Matrix3<f64>) -> f64 {
+    let frobenius = a.norm();
+    let q = a.trace() / 3.0;
+    let b = a - Matrix3::identity() * q;
+    let p = (b.norm_squared() / 6.0).sqrt();
+    if !(p > 0.0) {
+        return frobenius.min(q.abs());
+    }
+    let r = ((b / p).determinant() / 2.0).clamp(-1.0, 1.0);
+    let phi = r.acos() / 3.0;
+    let largest = q + 2.0 * p * phi.cos();
+    let smallest = q + 2.0 * p * (phi + 2.0 * PI / 3.0).cos();
+    let norm = largest.abs().max(smallest.abs());
+    frobenius.min(norm + 1e-6 * (q.abs() + p))
+}
+
 /// Bound of `‖[Ω, S]‖₂ / s` (`Ω` the cross-product matrix of `ω`, `S` the root matrix, `s` the
 /// scale): the rate at which rotation changes `S`, per unit scale. In the body frame
 /// `[Ω, S] = s·R[Ω_b, D]Rᵀ` with `ω_b = Rᵀω` (constant in free flight: the body turns about
-/// `ω`), a symmetric matrix with zero diagonal and entries `±ω_l(d_j − d_k)` (`{j, k, l}` =
-/// `{0, 1, 2}`); it is traceless, so its spectral norm is at most `√(2/3)` of its Frobenius
-/// norm `√(2Σ_l ω_l²(d_j − d_k)²)`. Also at most `|ω|(1 − e)` (`[Ω, S] = [Ω, S − mI]`, `m` the
-/// mid-range of the semi-axes); the smaller is returned. Spin about a symmetry axis costs
-/// nothing.
+/// `ω`), a symmetric matrix with zero diagonal and entries `(Ω_b)_jk (d_k − d_j)`; its
+/// spectral norm is taken in closed form ([`symmetric_spectral_norm`]). For a prolate
+/// spheroid it is `ω⊥(1 − e)` (`ω⊥` the spin across the axis, `e` the relative thickness):
+/// spin about a symmetry axis costs nothing.
 fn commutator_bound(shape: &Ellipsoid, spin: &Spin) -> f64 {
-    let body = spin.orientation.inverse_transform_vector(&spin.omega);
+    let w = spin.orientation.inverse_transform_vector(&spin.omega);
     let d = shape.axes;
-    let sum = (0..3)
-        .map(|l| {
-            let (j, k) = ((l + 1) % 3, (l + 2) % 3);
-            (body[l] * (d[j] - d[k])).powi(2)
-        })
-        .sum::<f64>();
-    let traceless = (4.0 / 3.0 * sum).sqrt();
-    traceless.min(spin.omega.norm() * (1.0 - d.min()))
+    let (c01, c02, c12) = (-w.z * (d.y - d.x), w.y * (d.z - d.x), -w.x * (d.z - d.y));
+    let c = Matrix3::new(0.0, c01, c02, c01, 0.0, c12, c02, c12, 0.0);
+    symmetric_spectral_norm(&c)
 }
 
 /// Time up to which an ellipsoid stays inside its envelope (see [`Envelope`]).
@@ -363,7 +379,8 @@ fn commutator_bound(shape: &Ellipsoid, spin: &Spin) -> f64 {
 /// With `S(t) = R(t)·diag(a(t))·R(t)ᵀ` the body is `{c(t) + S(t)u : |u| ≤ 1}`, and its support
 /// function exceeds that of `E₀` by at most `|c(t) − c₀| + ‖S(t) − S₀‖₂` in every direction
 /// (`|S n| − |S₀n| ≤ |(S − S₀)n|`), so it lies in `E₀ ⊕ B(D(t))` with
-/// `D(t) = |c(t) − c₀| + ‖S(t) − S₀‖_F` (Frobenius ≥ spectral norm). In free flight
+/// `D(t) = |c(t) − c₀| + ‖S(t) − S₀‖₂` ([`symmetric_spectral_norm`]; the Frobenius norm, also
+/// a bound, charges a needle turned by `θ` with `√2·aθ` instead of `aθ`). In free flight
 /// `Ṡ = [Ω, S] + R·ȧ·Rᵀ` (`Ω` the cross-product matrix of the constant `ω`); as
 /// `‖[Ω, S]‖₂ ≤ κ·s` ([`commutator_bound`], `s` the scale) and `‖R·ȧ·Rᵀ‖₂ = |g|`. Hence,
 /// `τ` later, `D ≤ D(t) + (|v| + |g| + κ·s(t))·τ + ½κ|g|·τ²`, and the particle stays inside
@@ -376,7 +393,8 @@ fn envelope_exit(
     vel: &Vec3,
     t: f64,
 ) -> Option<f64> {
-    let drift = q.norm() + (shape.root_matrix(&spin.rotation(), t) - envelope.root).norm();
+    let drift = q.norm()
+        + symmetric_spectral_norm(&(shape.root_matrix(&spin.rotation(), t) - envelope.root));
     let room = envelope.skin - drift;
     if room <= 0.0 {
         return Some(0.0);
@@ -1220,6 +1238,49 @@ mod tests {
             if let Some(n) = v.try_normalize(1e-3) {
                 return n;
             }
+        }
+    }
+
+    #[test]
+    fn the_spectral_norm_matches_an_eigen_decomposition_and_bounds_it() {
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(15);
+        for k in 0..2000 {
+            let mut a = Matrix3::from_fn(|_, _| rng.gen_range(-1.0..1.0));
+            a = a + a.transpose();
+            match k % 4 {
+                // Repeated eigenvalues (a needle's commutator has ±x and 0), and a multiple
+                // of the identity.
+                1 => a = Matrix3::from_diagonal(&Vec3::new(a[(0, 0)], a[(0, 0)], a[(1, 1)])),
+                2 => a = Matrix3::identity() * a[(0, 1)],
+                _ => {}
+            }
+            let exact = a.symmetric_eigenvalues().amax();
+            let found = symmetric_spectral_norm(&a);
+            assert!(found >= exact, "{found} < {exact} for {a}");
+            assert!(found <= exact * (1.0 + 1e-5) + 1e-15, "{found} vs {exact}");
+        }
+        assert_eq!(symmetric_spectral_norm(&Matrix3::zeros()), 0.0);
+    }
+
+    #[test]
+    fn a_prolate_commutator_is_the_spin_across_the_axis() {
+        // Axis along body x, relative thickness 0.1: ‖[Ω, S]‖₂ / s = ω⊥·(1 − 0.1), whatever
+        // the spin about the axis and the orientation.
+        let shape = Ellipsoid::new(Vec3::new(1.0, 0.1, 0.1));
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(16);
+        for _ in 0..100 {
+            let orientation = UnitQuaternion::from_scaled_axis(random_unit(&mut rng) * 2.0);
+            let body = Vec3::new(rng.gen_range(-30.0..30.0), 1.5, -2.0);
+            let spin = Spin {
+                orientation,
+                omega: orientation * body,
+            };
+            let expected = 2.5 * 0.9;
+            let found = commutator_bound(&shape, &spin);
+            assert!(
+                found >= expected && found < expected * (1.0 + 2e-6),
+                "{found}"
+            );
         }
     }
 
