@@ -272,6 +272,16 @@ impl Ellipsoid {
             .then(|| spin.orientation * Vec3::ith(long, 1.0))
     }
 
+    /// Half of the segment along the longest axis at time `t`, `(a_max − a_mid)·e_max` in the
+    /// world frame ([`Envelope::spine`]; zero for platelets and spheres).
+    #[inline]
+    fn spine(&self, spin: &Spin, t: f64) -> Vec3 {
+        let axes = self.semi_axes(t);
+        let long = axes.imax();
+        let mid = axes.sum() - axes.max() - axes.min();
+        spin.orientation * Vec3::ith(long, axes[long] - mid)
+    }
+
     /// `S = R·diag(semi-axes)·Rᵀ` at time `t`: the symmetric square root of the shape matrix.
     #[inline]
     fn root_matrix(&self, rot: &Matrix3<f64>, t: f64) -> Matrix3<f64> {
@@ -759,9 +769,15 @@ pub fn predict_ellipsoid_pair(
     let switch = 1e-3 * a.min_semi_axis(t).min(b.min_semi_axis(t));
     let mut tau = start;
     let mut lambda = 0.5;
-    // Cheap steps along a fixed axis (first the centre line) until they have closed most of
-    // the gap; then the Perram–Wertheim axis is refreshed (the expensive part).
-    let mut axis = (motion.r0 + motion.w * tau).try_normalize(0.0);
+    // Cheap steps along a fixed axis until they have closed most of the gap; then the
+    // Perram–Wertheim axis is refreshed (the expensive part). The first axis joins the
+    // closest points of the spines (as in [`envelopes_may_overlap`]): for needles nearly the
+    // common normal, where the centre line shows no gap at all and cost a Perram–Wertheim
+    // refresh in every prediction; the centre line for platelets and spheres (no spine).
+    let (spine_a, spine_b) = (a.spine(sa, t), b.spine(sb, t));
+    let r_start = motion.r0 + motion.w * tau;
+    let (s, u) = closest_on_segments(&spine_a, &spine_b, &-r_start);
+    let mut axis = (r_start - spine_a * s + spine_b * u).try_normalize(0.0);
     let mut fresh = false;
     let mut reference = f64::INFINITY;
     for _ in 0..MAX_STEPS {
