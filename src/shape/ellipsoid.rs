@@ -389,7 +389,7 @@ fn symmetric_spectral_norm(a: &Matrix3<f64>) -> f64 {
     let q = a.trace() / 3.0;
     let b = a - Matrix3::identity() * q;
     let p = (b.norm_squared() / 6.0).sqrt();
-    if !(p > 0.0) {
+    if p.is_nan() || p <= 0.0 {
         return frobenius.min(q.abs());
     }
     let r = ((b / p).determinant() / 2.0).clamp(-1.0, 1.0);
