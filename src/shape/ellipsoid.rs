@@ -28,6 +28,12 @@
 //!    [`CONTACT_TOLERANCE`]) times the smallest semi-axis
 //!    (contact) or the time leaves the window.
 //!
+//! Any fixed unit `n` gives such a bound, so step 1 is skipped while a cheaper axis shows a
+//! gap: the first axis joins the closest points of the two long-axis segments (for needles
+//! nearly the common normal; the centre line for platelets and spheres), and the
+//! Perram–Wertheim axis is computed when the gap along the current axis is gone or has
+//! shrunk to a quarter of its value at the last refresh.
+//!
 //! The steps shrink like Newton steps near a contact (the separating axis converges to the
 //! contact normal), a grazing pair walks past its closest approach in steps of `√(2g/K)`, and
 //! an enter-and-exit within one step is impossible by construction, so a first contact is
