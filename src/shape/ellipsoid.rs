@@ -271,21 +271,25 @@ impl Ellipsoid {
     /// The unit symmetry axis (world frame) of a prolate spheroid (one long semi-axis, the
     /// other two equal) in orientation `spin`; `None` for other shapes.
     #[inline]
-    fn prolate_axis(&self, spin: &Spin) -> Option<Vec3> {
+    fn is_prolate(&self) -> bool {
         let long = self.axes.imax();
         let (j, k) = ((long + 1) % 3, (long + 2) % 3);
-        (self.axes[j] == self.axes[k] && self.axes[j] < 1.0)
-            .then(|| spin.orientation * Vec3::ith(long, 1.0))
+        self.axes[j] == self.axes[k] && self.axes[j] < 1.0
     }
 
-    /// Half of the segment along the longest axis at time `t`, `(a_max − a_mid)·e_max` in the
-    /// world frame ([`Envelope::spine`]; zero for platelets and spheres).
+    /// The unit longest axis (world frame) in orientation `spin`.
     #[inline]
-    fn spine(&self, spin: &Spin, t: f64) -> Vec3 {
+    fn long_axis(&self, spin: &Spin) -> Vec3 {
+        spin.orientation * Vec3::ith(self.axes.imax(), 1.0)
+    }
+
+    /// Half of the segment along the longest axis (unit `axis`, [`Ellipsoid::long_axis`]) at
+    /// time `t`, `(a_max − a_mid)·e_max` ([`Envelope::spine`]; zero for platelets and spheres).
+    #[inline]
+    fn spine(&self, axis: &Vec3, t: f64) -> Vec3 {
         let axes = self.semi_axes(t);
-        let long = axes.imax();
         let mid = axes.sum() - axes.max() - axes.min();
-        spin.orientation * Vec3::ith(long, axes[long] - mid)
+        axis * (axes.max() - mid)
     }
 
     /// `S = R·diag(semi-axes)·Rᵀ` at time `t`: the symmetric square root of the shape matrix.
@@ -299,6 +303,7 @@ impl Ellipsoid {
 /// (`d = p − q`): the minimiser of the convex quadratic `|d + s·u − t·w|²`, by clamping the
 /// unconstrained minimiser in `s`, then taking the best clamped `t` for it and the best
 /// clamped `s` for that `t` (exact for segments). Degenerate segments (points) get 0.
+#[inline]
 fn closest_on_segments(u: &Vec3, w: &Vec3, d: &Vec3) -> (f64, f64) {
     let (uu, uw, ww) = (u.dot(u), u.dot(w), w.dot(w));
     let (ud, wd) = (u.dot(d), w.dot(d));
@@ -468,17 +473,22 @@ fn envelope_exit(
 /// smaller bound is returned. (Thermal needles spin fast about their axis: `I_∥ ≪ I_⊥`.)
 #[inline]
 pub fn support_curvature_bound(shape: &Ellipsoid, spin: &Spin, s_max: f64) -> f64 {
+    curvature_bound_with_axis(shape, spin, &shape.long_axis(spin), s_max)
+}
+
+/// [`support_curvature_bound`] with the unit longest axis `axis` ([`Ellipsoid::long_axis`])
+/// given (a prediction needs it for the spine too).
+#[inline]
+fn curvature_bound_with_axis(shape: &Ellipsoid, spin: &Spin, axis: &Vec3, s_max: f64) -> f64 {
     let e = shape.axes.min();
     let omega = spin.omega.norm();
     let general = 2.0 * shape.g.abs() * omega + s_max * omega * omega * (1.0 + 1.0 / e);
-    match shape.prolate_axis(spin) {
-        Some(axis) => {
-            let across = spin.omega.cross(&axis).norm();
-            let prolate =
-                2.0 * shape.g.abs() * across + s_max * (across * across / e + omega * across);
-            general.min(prolate)
-        }
-        None => general,
+    if shape.is_prolate() {
+        let across = spin.omega.cross(axis).norm();
+        let prolate = 2.0 * shape.g.abs() * across + s_max * (across * across / e + omega * across);
+        general.min(prolate)
+    } else {
+        general
     }
 }
 
@@ -718,10 +728,10 @@ impl PairMotion<'_> {
     }
 
     /// Bound of the second derivative of the projected gap over `[t, t + max_tau]`.
-    fn curvature_bound(&self, max_tau: f64) -> f64 {
+    fn curvature_bound(&self, max_tau: f64, axis_a: &Vec3, axis_b: &Vec3) -> f64 {
         let end = self.t + max_tau;
-        support_curvature_bound(self.a, self.sa, self.a.scale_at(end))
-            + support_curvature_bound(self.b, self.sb, self.b.scale_at(end))
+        curvature_bound_with_axis(self.a, self.sa, axis_a, self.a.scale_at(end))
+            + curvature_bound_with_axis(self.b, self.sb, axis_b, self.b.scale_at(end))
     }
 
     /// `η1` of the characteristic polynomial at `t + τ` and the configuration (Table 1).
@@ -769,7 +779,8 @@ pub fn predict_ellipsoid_pair(
         w: -dv,
         t,
     };
-    let curvature = motion.curvature_bound(max_tau);
+    let (axis_a, axis_b) = (a.long_axis(sa), b.long_axis(sb));
+    let curvature = motion.curvature_bound(max_tau, &axis_a, &axis_b);
     let relative = a.contact_tolerance.max(b.contact_tolerance);
     let tolerance = relative * a.min_semi_axis(t).min(b.min_semi_axis(t));
     let switch = 1e-3 * a.min_semi_axis(t).min(b.min_semi_axis(t));
@@ -780,7 +791,7 @@ pub fn predict_ellipsoid_pair(
     // closest points of the spines (as in [`envelopes_may_overlap`]): for needles nearly the
     // common normal, where the centre line shows no gap at all and cost a Perram–Wertheim
     // refresh in every prediction; the centre line for platelets and spheres (no spine).
-    let (spine_a, spine_b) = (a.spine(sa, t), b.spine(sb, t));
+    let (spine_a, spine_b) = (a.spine(&axis_a, t), b.spine(&axis_b, t));
     let r_start = motion.r0 + motion.w * tau;
     let (s, u) = closest_on_segments(&spine_a, &spine_b, &-r_start);
     let mut axis = (r_start - spine_a * s + spine_b * u).try_normalize(0.0);
