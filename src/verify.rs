@@ -477,7 +477,11 @@ fn check_ellipsoids(
     mj: &[[f64; 3]; 3],
     d: &Vector3<f64>,
 ) {
-    let scale = contact_scale(mi, mj, &[d.x, d.y, d.z]);
+    // A pair that is neither an overlap nor the new closest one needs no exact scale.
+    let floor = out
+        .min_pair_gap_relative
+        .map_or(f64::INFINITY, |m| m.max(0.0));
+    let scale = contact_scale_above(mi, mj, &[d.x, d.y, d.z], floor);
     let rel = scale - 1.0;
     if out.min_pair_gap_relative.is_none_or(|m| rel < m) {
         out.min_pair_gap_relative = Some(rel);
@@ -904,6 +908,14 @@ fn shape_matrix_of(o: Option<&Oriented>, r: f64) -> [[f64; 3]; 3] {
 /// both particles must be scaled about their centres to touch (`< 1`: overlap).
 /// `F` is concave in λ, so golden-section search finds the maximum.
 pub fn contact_scale(mi: &[[f64; 3]; 3], mj: &[[f64; 3]; 3], d: &[f64; 3]) -> f64 {
+    contact_scale_above(mi, mj, d, f64::INFINITY)
+}
+
+/// [`contact_scale`], or a lower bound `s` of it with `s − 1 > floor` as soon as the search
+/// has seen one (`F(λ) ≤ max F` for every λ): such a pair neither overlaps (`floor ≥ 0`) nor
+/// is closer than a pair at relative gap `floor`. Most pairs of a packing are far apart and
+/// show it at the first evaluations; only the close ones need the 80 golden-section steps.
+fn contact_scale_above(mi: &[[f64; 3]; 3], mj: &[[f64; 3]; 3], d: &[f64; 3], floor: f64) -> f64 {
     let f = |l: f64| -> f64 {
         let mut g = [[0.0; 3]; 3];
         for a in 0..3 {
@@ -931,7 +943,11 @@ pub fn contact_scale(mi: &[[f64; 3]; 3], mj: &[[f64; 3]; 3], d: &[f64; 3]) -> f6
     let mut x1 = hi - ratio * (hi - lo);
     let mut x2 = lo + ratio * (hi - lo);
     let (mut f1, mut f2) = (f(x1), f(x2));
+    let above = |f: f64| (f.max(0.0).sqrt() - 1.0 > floor).then(|| f.sqrt());
     for _ in 0..80 {
+        if let Some(bound) = above(f1.max(f2)) {
+            return bound;
+        }
         if f1 < f2 {
             lo = x1;
             x1 = x2;
@@ -970,6 +986,55 @@ mod tests {
             max: len,
             periodic: [true; 3],
         }
+    }
+
+    /// The early exit of the contact scale: either the exact scale, or a lower bound of it
+    /// beyond the floor (then the pair neither overlaps nor is the closest), on random
+    /// pairs of needles and platelets at all distances, and the exact scale for the
+    /// analytic side-by-side contact of two prolate spheroids `2 : 1 : 1` two apart.
+    #[test]
+    fn the_early_exit_of_the_contact_scale_is_exact_or_beyond_the_floor() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(5);
+        let matrix = |rng: &mut rand_xoshiro::Xoshiro256PlusPlus| {
+            let q = nalgebra::UnitQuaternion::from_scaled_axis(Vector3::from_fn(|_, _| {
+                rng.gen_range(-3.0..3.0)
+            }));
+            let axes = if rng.gen_bool(0.5) {
+                Vector3::new(1.0, 0.05, 0.05)
+            } else {
+                Vector3::new(1.0, 0.2, 1.0)
+            };
+            let r = q.to_rotation_matrix();
+            let m = r.matrix()
+                * nalgebra::Matrix3::from_diagonal(&axes.component_mul(&axes))
+                * r.matrix().transpose();
+            [0, 1, 2].map(|a| [0, 1, 2].map(|b| m[(a, b)]))
+        };
+        let (mut early, mut exact) = (0, 0);
+        for _ in 0..2000 {
+            let (mi, mj) = (matrix(&mut rng), matrix(&mut rng));
+            let d = [0, 1, 2].map(|_| rng.gen_range(-2.0..2.0));
+            let floor = rng.gen_range(0.0..0.5);
+            let full = contact_scale(&mi, &mj, &d);
+            let found = contact_scale_above(&mi, &mj, &d, floor);
+            if found == full {
+                exact += 1;
+            } else {
+                early += 1;
+                assert!(
+                    found - 1.0 > floor && found <= full,
+                    "{found} {full} {floor}"
+                );
+            }
+            if full - 1.0 <= floor {
+                assert_eq!(found, full);
+            }
+        }
+        assert!(early > 200 && exact > 200, "{early} early, {exact} exact");
+        let m = [[4.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        let side = contact_scale_above(&m, &m, &[0.0, 2.0, 0.0], 0.0);
+        assert!((side - 1.0).abs() < 1e-9, "{side}");
     }
 
     /// Every pair violation of spheres with radii 0.25–8 (log-uniform, size ratio 32: several

@@ -26,7 +26,8 @@ pub const MAGIC: &[u8] = b"densepack-checkpoint\n";
 /// Version of the checkpoint layout.
 /// 2: event counters gained `prediction_failures`; ellipsoid kernels (with their spins).
 /// 3: kernels store their neighbour envelopes (empty for spheres).
-pub const CHECKPOINT_VERSION: u32 = 3;
+/// 4: ellipsoid envelopes store their capsule (radius and half-length of the spine).
+pub const CHECKPOINT_VERSION: u32 = 4;
 
 /// Everything of a checkpoint but the kernel.
 #[derive(Clone, Debug, Serialize, Deserialize)]

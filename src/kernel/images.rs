@@ -80,7 +80,14 @@ pub(super) fn translation(shift: [i32; 3], period: &Vec3) -> Vec3 {
 /// Calls `f` with every shift `n` for which spheres of radii summing to `reach`, centred `d`
 /// apart (`d = c_i − c_j`, both wrapped into the box), overlap when the second is translated by
 /// `n·L`. With `own` (a sphere against its own images) the zero shift is left out and only one
-/// of `±n` is given (the one whose first non-zero component is positive).
+/// of `±n` is given (the one whose first non-zero component is positive). Shifts come in the
+/// order of increasing `(n_z, n_y, n_x)`.
+///
+/// Called for every candidate of every list update with images (all particles when the list
+/// spheres span the box), so it avoids divisions and rounding calls: per axis, the squared
+/// offsets `(d_k − n_k L_k)²` of the at most `2·MAX_SHIFT + 1` shifts are tabulated once and
+/// those already beyond `reach` dropped; a pair of axes whose partial sum is beyond it skips
+/// its inner loop (the sum only grows).
 pub(super) fn overlapping_shifts(
     d: &Vec3,
     reach: f64,
@@ -88,26 +95,38 @@ pub(super) fn overlapping_shifts(
     own: bool,
     mut f: impl FnMut([i32; 3]),
 ) {
-    // Per axis, only shifts with `|d_k − n_k L_k| < reach` can pass the distance test (one
-    // more on each side against rounding in the division).
-    let range = |k: usize| {
-        if period[k] > 0.0 {
-            let lo = ((d[k] - reach) / period[k]).ceil() as i32 - 1;
-            let hi = ((d[k] + reach) / period[k]).floor() as i32 + 1;
-            lo.max(-MAX_SHIFT)..=hi.min(MAX_SHIFT)
-        } else {
-            0..=0
-        }
-    };
     let reach2 = reach * reach;
-    for nz in range(2) {
-        for ny in range(1) {
-            for nx in range(0) {
+    // Shifts per axis with their squared offsets, in increasing order of the shift.
+    let mut shifts = [[(0i32, 0.0f64); SIDE as usize]; 3];
+    let mut counts = [0usize; 3];
+    for k in 0..3 {
+        if period[k] > 0.0 {
+            for n in -MAX_SHIFT..=MAX_SHIFT {
+                let offset = d[k] - f64::from(n) * period[k];
+                let sq = offset * offset;
+                if sq < reach2 {
+                    shifts[k][counts[k]] = (n, sq);
+                    counts[k] += 1;
+                }
+            }
+        } else {
+            shifts[k][0] = (0, d[k] * d[k]);
+            counts[k] = 1;
+        }
+    }
+    for &(nz, z2) in &shifts[2][..counts[2]] {
+        for &(ny, y2) in &shifts[1][..counts[1]] {
+            if y2 + z2 >= reach2 {
+                continue;
+            }
+            for &(nx, x2) in &shifts[0][..counts[0]] {
                 let n = [nx, ny, nz];
                 if own && n.iter().copied().find(|&x| x != 0).is_none_or(|x| x < 0) {
                     continue;
                 }
-                if (d - translation(n, period)).norm_squared() < reach2 {
+                // The squared norm of `d − n·L`, summed in the order `Vector3::norm_squared`
+                // uses.
+                if x2 + y2 + z2 < reach2 {
                     f(n);
                 }
             }

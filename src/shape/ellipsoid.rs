@@ -28,6 +28,12 @@
 //!    [`CONTACT_TOLERANCE`]) times the smallest semi-axis
 //!    (contact) or the time leaves the window.
 //!
+//! Any fixed unit `n` gives such a bound, so step 1 is skipped while a cheaper axis shows a
+//! gap: the first axis joins the closest points of the two long-axis segments (for needles
+//! nearly the common normal; the centre line for platelets and spheres), and the
+//! Perram–Wertheim axis is computed when the gap along the current axis is gone or has
+//! shrunk to a quarter of its value at the last refresh.
+//!
 //! The steps shrink like Newton steps near a contact (the separating axis converges to the
 //! contact normal), a grazing pair walks past its closest approach in steps of `√(2g/K)`, and
 //! an enter-and-exit within one step is impossible by construction, so a first contact is
@@ -242,6 +248,10 @@ pub struct Envelope {
     spine: Vec3,
     /// Skin width `δ` (length).
     skin: f64,
+    /// Radius `a_mid + δ` of the capsule around the spine that holds the envelope.
+    capsule: f64,
+    /// Length `|spine|` (`a_max − a_mid`).
+    half_length: f64,
 }
 
 impl Default for Envelope {
@@ -251,6 +261,8 @@ impl Default for Envelope {
             m: Matrix3::zeros(),
             spine: Vec3::zeros(),
             skin: 0.0,
+            capsule: 0.0,
+            half_length: 0.0,
         }
     }
 }
@@ -259,11 +271,25 @@ impl Ellipsoid {
     /// The unit symmetry axis (world frame) of a prolate spheroid (one long semi-axis, the
     /// other two equal) in orientation `spin`; `None` for other shapes.
     #[inline]
-    fn prolate_axis(&self, spin: &Spin) -> Option<Vec3> {
+    fn is_prolate(&self) -> bool {
         let long = self.axes.imax();
         let (j, k) = ((long + 1) % 3, (long + 2) % 3);
-        (self.axes[j] == self.axes[k] && self.axes[j] < 1.0)
-            .then(|| spin.orientation * Vec3::ith(long, 1.0))
+        self.axes[j] == self.axes[k] && self.axes[j] < 1.0
+    }
+
+    /// The unit longest axis (world frame) in orientation `spin`.
+    #[inline]
+    fn long_axis(&self, spin: &Spin) -> Vec3 {
+        spin.orientation * Vec3::ith(self.axes.imax(), 1.0)
+    }
+
+    /// Half of the segment along the longest axis (unit `axis`, [`Ellipsoid::long_axis`]) at
+    /// time `t`, `(a_max − a_mid)·e_max` ([`Envelope::spine`]; zero for platelets and spheres).
+    #[inline]
+    fn spine(&self, axis: &Vec3, t: f64) -> Vec3 {
+        let axes = self.semi_axes(t);
+        let mid = axes.sum() - axes.max() - axes.min();
+        axis * (axes.max() - mid)
     }
 
     /// `S = R·diag(semi-axes)·Rᵀ` at time `t`: the symmetric square root of the shape matrix.
@@ -277,6 +303,7 @@ impl Ellipsoid {
 /// (`d = p − q`): the minimiser of the convex quadratic `|d + s·u − t·w|²`, by clamping the
 /// unconstrained minimiser in `s`, then taking the best clamped `t` for it and the best
 /// clamped `s` for that `t` (exact for segments). Degenerate segments (points) get 0.
+#[inline]
 fn closest_on_segments(u: &Vec3, w: &Vec3, d: &Vec3) -> (f64, f64) {
     let (uu, uw, ww) = (u.dot(u), u.dot(w), w.dot(w));
     let (ud, wd) = (u.dot(d), w.dot(d));
@@ -314,11 +341,36 @@ fn closest_on_segments(u: &Vec3, w: &Vec3, d: &Vec3) -> (f64, f64) {
 /// spheroids of low aspect ratio nearly the centre line), then the Perram–Wertheim
 /// separating axis of the two ellipsoids (a few Newton steps). A margin of `10⁻¹²` of the
 /// lengths involved covers rounding.
+///
+/// Most pairs that the list spheres let through are far apart (a needle's sphere holds
+/// `~R²` times its volume), so cheaper tests with the capsules that hold the envelopes (radius
+/// `a_mid + δ` around the spine, [`Envelope::capsule`]) come first: `b`'s centre farther
+/// from `a`'s spine than `a`'s capsule radius plus `b`'s half-length and capsule radius, then
+/// the support functions of the capsules along the first trial axis (`|n·spine| + ρ`, three
+/// dot products instead of two matrix products and roots). Both only reject pairs that the
+/// envelopes' own test along that axis rejects too (the capsule contains the envelope).
 fn envelopes_may_overlap(a: &Envelope, b: &Envelope, d: &Vec3) -> bool {
     let reach = a.skin + b.skin;
+    let margin = |along: f64, sum: f64| 1e-12 * (along.abs() + sum);
+    // `b`'s centre against `a`'s spine segment.
+    let uu = a.spine.norm_squared();
+    let s = if uu > 0.0 {
+        (-d.dot(&a.spine) / uu).clamp(-1.0, 1.0)
+    } else {
+        0.0
+    };
+    let apart = (d + a.spine * s).norm();
+    let sum = a.capsule + b.half_length + b.capsule;
+    if apart > sum + margin(apart, sum) {
+        return false;
+    }
     let separated = |n: &Vec3| {
-        let (ha, hb) = ((a.root * n).norm(), (b.root * n).norm());
         let along = n.dot(d);
+        let capsules = n.dot(&a.spine).abs() + n.dot(&b.spine).abs() + a.capsule + b.capsule;
+        if along > capsules + margin(along, capsules) {
+            return true;
+        }
+        let (ha, hb) = ((a.root * n).norm(), (b.root * n).norm());
         along - ha - hb > reach + 1e-12 * (along.abs() + ha + hb + reach)
     };
     let (s, t) = closest_on_segments(&a.spine, &b.spine, d);
@@ -337,25 +389,41 @@ fn envelopes_may_overlap(a: &Envelope, b: &Envelope, d: &Vec3) -> bool {
     }
 }
 
+/// Largest eigenvalue magnitude (the spectral norm) of a symmetric 3×3 matrix, rounded up:
+/// the closed-form (trigonometric) eigenvalues of `A = qI + pB` (`q = tr A / 3`,
+/// `p² = tr (A − qI)² / 6`, `det B = 2 cos 3φ`), with a margin of `10⁻⁶·(|q| + p)` against
+/// rounding (near a double eigenvalue `det B / 2` is within rounding of ±1, where `acos`
+/// amplifies an error `ε` to `√ε`: eigenvalues off by ~`10⁻⁸·p`), never above the Frobenius
+/// norm (itself a bound).
+fn symmetric_spectral_norm(a: &Matrix3<f64>) -> f64 {
+    let frobenius = a.norm();
+    let q = a.trace() / 3.0;
+    let b = a - Matrix3::identity() * q;
+    let p = (b.norm_squared() / 6.0).sqrt();
+    if p.is_nan() || p <= 0.0 {
+        return frobenius.min(q.abs());
+    }
+    let r = ((b / p).determinant() / 2.0).clamp(-1.0, 1.0);
+    let phi = r.acos() / 3.0;
+    let largest = q + 2.0 * p * phi.cos();
+    let smallest = q + 2.0 * p * (phi + 2.0 * PI / 3.0).cos();
+    let norm = largest.abs().max(smallest.abs());
+    frobenius.min(norm + 1e-6 * (q.abs() + p))
+}
+
 /// Bound of `‖[Ω, S]‖₂ / s` (`Ω` the cross-product matrix of `ω`, `S` the root matrix, `s` the
 /// scale): the rate at which rotation changes `S`, per unit scale. In the body frame
 /// `[Ω, S] = s·R[Ω_b, D]Rᵀ` with `ω_b = Rᵀω` (constant in free flight: the body turns about
-/// `ω`), a symmetric matrix with zero diagonal and entries `±ω_l(d_j − d_k)` (`{j, k, l}` =
-/// `{0, 1, 2}`); it is traceless, so its spectral norm is at most `√(2/3)` of its Frobenius
-/// norm `√(2Σ_l ω_l²(d_j − d_k)²)`. Also at most `|ω|(1 − e)` (`[Ω, S] = [Ω, S − mI]`, `m` the
-/// mid-range of the semi-axes); the smaller is returned. Spin about a symmetry axis costs
-/// nothing.
+/// `ω`), a symmetric matrix with zero diagonal and entries `(Ω_b)_jk (d_k − d_j)`; its
+/// spectral norm is taken in closed form ([`symmetric_spectral_norm`]). For a prolate
+/// spheroid it is `ω⊥(1 − e)` (`ω⊥` the spin across the axis, `e` the relative thickness):
+/// spin about a symmetry axis costs nothing.
 fn commutator_bound(shape: &Ellipsoid, spin: &Spin) -> f64 {
-    let body = spin.orientation.inverse_transform_vector(&spin.omega);
+    let w = spin.orientation.inverse_transform_vector(&spin.omega);
     let d = shape.axes;
-    let sum = (0..3)
-        .map(|l| {
-            let (j, k) = ((l + 1) % 3, (l + 2) % 3);
-            (body[l] * (d[j] - d[k])).powi(2)
-        })
-        .sum::<f64>();
-    let traceless = (4.0 / 3.0 * sum).sqrt();
-    traceless.min(spin.omega.norm() * (1.0 - d.min()))
+    let (c01, c02, c12) = (-w.z * (d.y - d.x), w.y * (d.z - d.x), -w.x * (d.z - d.y));
+    let c = Matrix3::new(0.0, c01, c02, c01, 0.0, c12, c02, c12, 0.0);
+    symmetric_spectral_norm(&c)
 }
 
 /// Time up to which an ellipsoid stays inside its envelope (see [`Envelope`]).
@@ -363,7 +431,8 @@ fn commutator_bound(shape: &Ellipsoid, spin: &Spin) -> f64 {
 /// With `S(t) = R(t)·diag(a(t))·R(t)ᵀ` the body is `{c(t) + S(t)u : |u| ≤ 1}`, and its support
 /// function exceeds that of `E₀` by at most `|c(t) − c₀| + ‖S(t) − S₀‖₂` in every direction
 /// (`|S n| − |S₀n| ≤ |(S − S₀)n|`), so it lies in `E₀ ⊕ B(D(t))` with
-/// `D(t) = |c(t) − c₀| + ‖S(t) − S₀‖_F` (Frobenius ≥ spectral norm). In free flight
+/// `D(t) = |c(t) − c₀| + ‖S(t) − S₀‖₂` ([`symmetric_spectral_norm`]; the Frobenius norm, also
+/// a bound, charges a needle turned by `θ` with `√2·aθ` instead of `aθ`). In free flight
 /// `Ṡ = [Ω, S] + R·ȧ·Rᵀ` (`Ω` the cross-product matrix of the constant `ω`); as
 /// `‖[Ω, S]‖₂ ≤ κ·s` ([`commutator_bound`], `s` the scale) and `‖R·ȧ·Rᵀ‖₂ = |g|`. Hence,
 /// `τ` later, `D ≤ D(t) + (|v| + |g| + κ·s(t))·τ + ½κ|g|·τ²`, and the particle stays inside
@@ -376,7 +445,8 @@ fn envelope_exit(
     vel: &Vec3,
     t: f64,
 ) -> Option<f64> {
-    let drift = q.norm() + (shape.root_matrix(&spin.rotation(), t) - envelope.root).norm();
+    let drift = q.norm()
+        + symmetric_spectral_norm(&(shape.root_matrix(&spin.rotation(), t) - envelope.root));
     let room = envelope.skin - drift;
     if room <= 0.0 {
         return Some(0.0);
@@ -403,17 +473,22 @@ fn envelope_exit(
 /// smaller bound is returned. (Thermal needles spin fast about their axis: `I_∥ ≪ I_⊥`.)
 #[inline]
 pub fn support_curvature_bound(shape: &Ellipsoid, spin: &Spin, s_max: f64) -> f64 {
+    curvature_bound_with_axis(shape, spin, &shape.long_axis(spin), s_max)
+}
+
+/// [`support_curvature_bound`] with the unit longest axis `axis` ([`Ellipsoid::long_axis`])
+/// given (a prediction needs it for the spine too).
+#[inline]
+fn curvature_bound_with_axis(shape: &Ellipsoid, spin: &Spin, axis: &Vec3, s_max: f64) -> f64 {
     let e = shape.axes.min();
     let omega = spin.omega.norm();
     let general = 2.0 * shape.g.abs() * omega + s_max * omega * omega * (1.0 + 1.0 / e);
-    match shape.prolate_axis(spin) {
-        Some(axis) => {
-            let across = spin.omega.cross(&axis).norm();
-            let prolate =
-                2.0 * shape.g.abs() * across + s_max * (across * across / e + omega * across);
-            general.min(prolate)
-        }
-        None => general,
+    if shape.is_prolate() {
+        let across = spin.omega.cross(axis).norm();
+        let prolate = 2.0 * shape.g.abs() * across + s_max * (across * across / e + omega * across);
+        general.min(prolate)
+    } else {
+        general
     }
 }
 
@@ -653,10 +728,10 @@ impl PairMotion<'_> {
     }
 
     /// Bound of the second derivative of the projected gap over `[t, t + max_tau]`.
-    fn curvature_bound(&self, max_tau: f64) -> f64 {
+    fn curvature_bound(&self, max_tau: f64, axis_a: &Vec3, axis_b: &Vec3) -> f64 {
         let end = self.t + max_tau;
-        support_curvature_bound(self.a, self.sa, self.a.scale_at(end))
-            + support_curvature_bound(self.b, self.sb, self.b.scale_at(end))
+        curvature_bound_with_axis(self.a, self.sa, axis_a, self.a.scale_at(end))
+            + curvature_bound_with_axis(self.b, self.sb, axis_b, self.b.scale_at(end))
     }
 
     /// `η1` of the characteristic polynomial at `t + τ` and the configuration (Table 1).
@@ -704,15 +779,22 @@ pub fn predict_ellipsoid_pair(
         w: -dv,
         t,
     };
-    let curvature = motion.curvature_bound(max_tau);
+    let (axis_a, axis_b) = (a.long_axis(sa), b.long_axis(sb));
+    let curvature = motion.curvature_bound(max_tau, &axis_a, &axis_b);
     let relative = a.contact_tolerance.max(b.contact_tolerance);
     let tolerance = relative * a.min_semi_axis(t).min(b.min_semi_axis(t));
     let switch = 1e-3 * a.min_semi_axis(t).min(b.min_semi_axis(t));
     let mut tau = start;
     let mut lambda = 0.5;
-    // Cheap steps along a fixed axis (first the centre line) until they have closed most of
-    // the gap; then the Perram–Wertheim axis is refreshed (the expensive part).
-    let mut axis = (motion.r0 + motion.w * tau).try_normalize(0.0);
+    // Cheap steps along a fixed axis until they have closed most of the gap; then the
+    // Perram–Wertheim axis is refreshed (the expensive part). The first axis joins the
+    // closest points of the spines (as in [`envelopes_may_overlap`]): for needles nearly the
+    // common normal, where the centre line shows no gap at all and cost a Perram–Wertheim
+    // refresh in every prediction; the centre line for platelets and spheres (no spine).
+    let (spine_a, spine_b) = (a.spine(&axis_a, t), b.spine(&axis_b, t));
+    let r_start = motion.r0 + motion.w * tau;
+    let (s, u) = closest_on_segments(&spine_a, &spine_b, &-r_start);
+    let mut axis = (r_start - spine_a * s + spine_b * u).try_normalize(0.0);
     let mut fresh = false;
     let mut reference = f64::INFINITY;
     for _ in 0..MAX_STEPS {
@@ -943,6 +1025,8 @@ impl Collidable for Ellipsoid {
             m: self.shape_matrix(&rot, t),
             spine: rot.column(long) * (axes[long] - mid),
             skin,
+            capsule: mid + skin,
+            half_length: axes[long] - mid,
         }
     }
 
@@ -1220,6 +1304,49 @@ mod tests {
             if let Some(n) = v.try_normalize(1e-3) {
                 return n;
             }
+        }
+    }
+
+    #[test]
+    fn the_spectral_norm_matches_an_eigen_decomposition_and_bounds_it() {
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(15);
+        for k in 0..2000 {
+            let mut a = Matrix3::from_fn(|_, _| rng.gen_range(-1.0..1.0));
+            a = a + a.transpose();
+            match k % 4 {
+                // Repeated eigenvalues (a needle's commutator has ±x and 0), and a multiple
+                // of the identity.
+                1 => a = Matrix3::from_diagonal(&Vec3::new(a[(0, 0)], a[(0, 0)], a[(1, 1)])),
+                2 => a = Matrix3::identity() * a[(0, 1)],
+                _ => {}
+            }
+            let exact = a.symmetric_eigenvalues().amax();
+            let found = symmetric_spectral_norm(&a);
+            assert!(found >= exact, "{found} < {exact} for {a}");
+            assert!(found <= exact * (1.0 + 1e-5) + 1e-15, "{found} vs {exact}");
+        }
+        assert_eq!(symmetric_spectral_norm(&Matrix3::zeros()), 0.0);
+    }
+
+    #[test]
+    fn a_prolate_commutator_is_the_spin_across_the_axis() {
+        // Axis along body x, relative thickness 0.1: ‖[Ω, S]‖₂ / s = ω⊥·(1 − 0.1), whatever
+        // the spin about the axis and the orientation.
+        let shape = Ellipsoid::new(Vec3::new(1.0, 0.1, 0.1));
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(16);
+        for _ in 0..100 {
+            let orientation = UnitQuaternion::from_scaled_axis(random_unit(&mut rng) * 2.0);
+            let body = Vec3::new(rng.gen_range(-30.0..30.0), 1.5, -2.0);
+            let spin = Spin {
+                orientation,
+                omega: orientation * body,
+            };
+            let expected = 2.5 * 0.9;
+            let found = commutator_bound(&shape, &spin);
+            assert!(
+                found >= expected && found < expected * (1.0 + 2e-6),
+                "{found}"
+            );
         }
     }
 
