@@ -26,7 +26,9 @@ pub const MAGIC: &[u8] = b"densepack-checkpoint\n";
 /// Version of the checkpoint layout.
 /// 2: event counters gained `prediction_failures`; ellipsoid kernels (with their spins).
 /// 3: kernels store their neighbour envelopes (empty for spheres).
-/// 4: ellipsoid envelopes store their capsule (radius and half-length of the spine).
+/// 4: ellipsoid envelopes store their capsule (radius and half-length of the spine); the
+/// kernel numbers its particles along a Morton curve of the cells, so a version-3 snapshot
+/// would resume in a numbering the uninterrupted run never had.
 pub const CHECKPOINT_VERSION: u32 = 4;
 
 /// Everything of a checkpoint but the kernel.

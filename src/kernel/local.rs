@@ -191,6 +191,12 @@ impl LocalLists {
         earliest_of(&self.events[i])
     }
 
+    /// Asks the memory system for the events of list `i` ([`super::prefetch`]).
+    #[inline]
+    pub(super) fn prefetch(&self, i: usize) {
+        super::prefetch(&self.events[i]);
+    }
+
     /// Removes the event at `index` of list `i`.
     #[inline]
     pub(super) fn remove(&mut self, i: usize, index: usize) {

@@ -600,8 +600,9 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     }
 
     /// Rebuilds the cell grid of neighbour-list centres for cells at least `width` wide, and
-    /// renumbers the particles in cell order so that neighbours sit close in memory (the
-    /// event loop's data then stays in cache for large systems). Only at a barrier: local
+    /// renumbers the particles in cell order (cells along a Morton curve,
+    /// [`CellGrid::locality_key`]) so that neighbours sit close in memory (the event loop's
+    /// data then stays in cache for large systems). Only at a barrier: local
     /// event lists must be empty.
     fn rebuild_grid(&mut self, width: f64) {
         let b = &self.boundary;
@@ -618,8 +619,10 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         }
         self.grid = CellGrid::with_levels(b.min(), b.max(), b.periodic(), &widths, n);
         let cells: Vec<u32> = (0..n).map(|i| self.home_cell(i)).collect();
+        let keys: Vec<u64> = cells.iter().map(|&c| self.grid.locality_key(c)).collect();
         let mut order: Vec<u32> = (0..n as u32).collect();
-        order.sort_by_key(|&i| (cells[i as usize], i));
+        order.sort_unstable_by_key(|&i| (keys[i as usize], i));
+        drop(keys);
         let mut new_index = vec![0u32; n];
         for (new, &old) in order.iter().enumerate() {
             new_index[old as usize] = new as u32;
@@ -1003,6 +1006,14 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             };
             if t > self.barrier_time {
                 return true;
+            }
+            // The particles likely to come next: their local lists, states and neighbour
+            // lists load while this event is processed (at 10⁵ particles these loads wait on
+            // main memory; measured: BENCHMARKS.md, design decisions).
+            for k in self.queue.upcoming().into_iter().flatten() {
+                self.local.prefetch(k);
+                prefetch(&self.particles[k]);
+                prefetch(&self.neighbours[k]);
             }
             let (idx, event) = self
                 .local

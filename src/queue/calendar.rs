@@ -491,6 +491,12 @@ impl EventQueue for CalendarQueue {
             .map(|&k| (k as usize, self.time[k as usize]))
     }
 
+    /// The root's children in the front heap: after the root, one of them is the earliest
+    /// unless the kernel reschedules the root's particle (or its partner) before them.
+    fn upcoming(&self) -> [Option<usize>; 2] {
+        [1, 2].map(|i| self.front.get(i).map(|&k| k as usize))
+    }
+
     fn pop(&mut self) -> Option<(usize, f64)> {
         self.settle();
         let &k = self.front.first()?;

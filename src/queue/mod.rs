@@ -49,6 +49,12 @@ pub trait EventQueue {
     fn peek(&mut self) -> Option<(usize, f64)>;
     /// Removes and returns the entry with the smallest `(time, key)`, if any.
     fn pop(&mut self) -> Option<(usize, f64)>;
+    /// Up to two keys likely to be peeked after the current earliest one: a hint (the
+    /// kernel asks the memory system for their data while it processes the current event),
+    /// with no guarantee of order or presence. None by default.
+    fn upcoming(&self) -> [Option<usize>; 2] {
+        [None; 2]
+    }
     /// Number of entries.
     fn len(&self) -> usize;
     /// Whether the queue holds no entry.
