@@ -279,8 +279,8 @@ fn tolerance_sweep(ctx: &StudyContext, ratios: &[f64], count: usize, repeats: us
 fn tolerance_runs(ctx: &StudyContext) -> Table {
     let (text, what) = if ctx.quick {
         (
-            include_str!("../../examples/scenes/ellipsoids_prolate_r2_n40.toml"),
-            "`ellipsoids_prolate_r2_n40.toml` (40 prolate spheroids R = 2 grown to φ 0.60)",
+            include_str!("../../examples/scenes/ellipsoids_prolate_r2_n30.toml"),
+            "`ellipsoids_prolate_r2_n30.toml` (30 prolate spheroids R = 2 grown to φ 0.60)",
         )
     } else {
         (
@@ -344,7 +344,7 @@ pub fn table2(ctx: &StudyContext) -> StudyOutput {
     let cases = [
         (
             "R1 = R2 = 2 (prolate) → φ 0.60",
-            include_str!("../../examples/scenes/ellipsoids_prolate_r2_n40.toml"),
+            include_str!("../../examples/scenes/ellipsoids_prolate_r2_n30.toml"),
             30,
             54.3,
         ),
@@ -406,8 +406,8 @@ pub fn table2(ctx: &StudyContext) -> StudyOutput {
     let mut table = Table::new(
         "paper 004, Table 2: periodic ellipsoids grown to φ",
         &format!(
-            "`examples/scenes/ellipsoids_prolate_r2_n40.toml` (N = 40; the paper used 30), \
-             `ellipsoids_oblate_r5_n45.toml` and, at the paper's N, \
+            "At the paper's N: `examples/scenes/ellipsoids_prolate_r2_n30.toml`, \
+             `ellipsoids_oblate_r5_n45.toml` and \
              `ellipsoids_{{prolate,oblate}}_r{{10,20,30,40}}_n*.toml` (particles about as long \
              as the box: the kernel tracks periodic images); the paper's times are its MATLAB \
              code's. Seconds are CPU seconds of the run's thread (the machine is shared). \
