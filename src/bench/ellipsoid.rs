@@ -349,6 +349,18 @@ pub fn table2(ctx: &StudyContext) -> StudyOutput {
             54.3,
         ),
         (
+            "R1 = 2, R2 = 1 (oblate) → φ 0.60",
+            include_str!("../../examples/scenes/ellipsoids_oblate_r2_n30.toml"),
+            30,
+            52.7,
+        ),
+        (
+            "R1 = R2 = 5 (prolate) → φ 0.55",
+            include_str!("../../examples/scenes/ellipsoids_prolate_r5_n45.toml"),
+            45,
+            69.9,
+        ),
+        (
             "R1 = 5, R2 = 1 (oblate) → φ 0.55",
             include_str!("../../examples/scenes/ellipsoids_oblate_r5_n45.toml"),
             45,
@@ -406,8 +418,8 @@ pub fn table2(ctx: &StudyContext) -> StudyOutput {
     let mut table = Table::new(
         "paper 004, Table 2: periodic ellipsoids grown to φ",
         &format!(
-            "At the paper's N: `examples/scenes/ellipsoids_prolate_r2_n30.toml`, \
-             `ellipsoids_oblate_r5_n45.toml` and \
+            "At the paper's N: `examples/scenes/ellipsoids_{{prolate,oblate}}_r2_n30.toml`, \
+             `ellipsoids_{{prolate,oblate}}_r5_n45.toml` and \
              `ellipsoids_{{prolate,oblate}}_r{{10,20,30,40}}_n*.toml` (particles about as long \
              as the box: the kernel tracks periodic images); the paper's times are its MATLAB \
              code's. Seconds are CPU seconds of the run's thread (the machine is shared). \
