@@ -1,6 +1,7 @@
 //! Ellipsoid studies (paper 004, Ghossein & Lévesque 2013): the cost and accuracy of the two
 //! collision predictors on random pairs ([`predictor`]), and the paper's Table 2 cases beside
-//! densepack with both predictors ([`table2`]).
+//! densepack with both predictors ([`table2`]), and the isotropy of the packings against N
+//! (Fig. 6, [`isotropy`]).
 //!
 //! Accuracy is judged by the independent check: the Perram–Wertheim contact scale of
 //! [`crate::verify::contact_scale`] at each predicted contact (< 1 would be an overlap), and
@@ -526,6 +527,149 @@ pub fn table2(ctx: &StudyContext) -> StudyOutput {
         "speed-up (paper s / densepack CPU s)",
     )
     .log(false, true);
+    figure.series = series;
+    StudyOutput {
+        markdown: table.markdown(),
+        csv: table,
+        figure,
+    }
+}
+
+/// Mean `ρ̄` of the eigenvalue ratio of `T = ⟨w wᵀ⟩` over `draws` sets of `n` independent
+/// uniformly distributed axes: what a perfectly random packing of `n` bodies gives (`ρ ≥ 1`
+/// for any finite set, → 1 as `n` grows), the reference for [`isotropy`].
+fn isotropic_reference(n: usize, draws: usize, seed: u64) -> f64 {
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+    let total: f64 = (0..draws)
+        .map(|_| {
+            let axes: Vec<Vec3> = (0..n).map(|_| normal3(&mut rng).normalize()).collect();
+            crate::run::ellipsoid::axis_tensor(axes.into_iter()).1
+        })
+        .sum();
+    total / draws as f64
+}
+
+/// Paper 004, Fig. 6: isotropy of the packings. For prolate spheroids R₁ = R₂ = 2 grown to
+/// φ = 0.30 and R₁ = R₂ = 10 grown to φ = 0.10, and N = 10 … 500 bodies, the mean `ρ̄` of the
+/// orientation tensor's eigenvalue ratio `ρ = λ_max/λ_min` (Eq. 1) over 10 seeds, with its
+/// 95 % confidence interval (Student t, 9 degrees of freedom), beside `ρ̄` of N independent
+/// uniform axes (10⁴ draws). The paper shows `ρ̄ → 1` as N grows; a random packing should
+/// match the independent axes within the interval.
+pub fn isotropy(ctx: &StudyContext) -> StudyOutput {
+    // (label, shipped scene it starts from, target φ)
+    let cases = [
+        (
+            "prolate R = 2, φ 0.30",
+            include_str!("../../examples/scenes/ellipsoids_prolate_r2_n30.toml"),
+            0.30,
+        ),
+        (
+            "prolate R = 10, φ 0.10",
+            include_str!("../../examples/scenes/ellipsoids_prolate_r10_n90.toml"),
+            0.10,
+        ),
+    ];
+    let (counts, seeds): (&[usize], u64) = if ctx.quick {
+        (&[10, 50], 3)
+    } else {
+        (&[10, 25, 50, 100, 200, 500], 10)
+    };
+    // Two-sided 95 % Student t quantiles for `seeds − 1` degrees of freedom.
+    let t95 = if seeds == 3 { 4.303 } else { 2.262 };
+    let mut table = Table::new(
+        "paper 004, Fig. 6: orientation isotropy ρ̄ against N",
+        &format!(
+            "ρ = λ_max/λ_min of the orientation tensor of the `a` axes (Eq. 1), mean ρ̄ over {seeds} \
+             seeds (the scene's seed + 0…{}) with its 95 % confidence interval; reference: ρ̄ of \
+             N independent uniform axes (10⁴ draws). Scenes: `ellipsoids_prolate_r2_n30.toml` \
+             and `ellipsoids_prolate_r10_n90.toml` with N and the target φ replaced. A case \
+             whose bodies would outgrow the box edge is refused by the scene check.",
+            seeds - 1
+        ),
+        &[
+            "case",
+            "N",
+            "runs",
+            "ρ̄ packings",
+            "95 % CI",
+            "ρ̄ independent axes",
+            "CPU s per run",
+        ],
+    );
+    let mut series = Vec::new();
+    for (label, text, phi) in cases {
+        let mut points = Vec::new();
+        let mut reference = Vec::new();
+        for &n in counts {
+            let mut base = Scene::from_toml(text).expect("the shipped ellipsoid scene is valid");
+            base.particles.count = Some(n);
+            base.stages[0].until.packing_fraction = Some(phi);
+            let lead = vec![label.to_owned(), n.to_string()];
+            if let Err(e) = base.validate() {
+                table.failed_row(lead, &e.to_string());
+                continue;
+            }
+            let (mut ratios, mut cpu, mut errors) = (Vec::new(), 0.0, Vec::new());
+            for s in 0..seeds {
+                let mut scene = base.clone();
+                scene.seed += s;
+                eprintln!("-- isotropy {label}, N = {n}, seed {}", scene.seed);
+                let cpu_start = cpu_time::ThreadTime::now();
+                match run_scene(&scene, &mut |_, _| {}) {
+                    Ok(o) => {
+                        cpu += cpu_start.elapsed().as_secs_f64();
+                        ratios
+                            .extend(o.packing.stats.extra["orientation_eigenvalue_ratio"].as_f64());
+                    }
+                    Err(e) => errors.push(e.to_string()),
+                }
+            }
+            if ratios.len() < 2 {
+                table.failed_row(lead, &errors.join("; "));
+                continue;
+            }
+            let m = ratios.len() as f64;
+            let mean = ratios.iter().sum::<f64>() / m;
+            let sd = (ratios.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / (m - 1.0)).sqrt();
+            let half = t95 * sd / m.sqrt();
+            let ideal = isotropic_reference(n, 10_000, 6 + n as u64);
+            points.push((n as f64, mean));
+            reference.push((n as f64, ideal));
+            table.row(
+                [
+                    lead,
+                    vec![
+                        if errors.is_empty() {
+                            ratios.len().to_string()
+                        } else {
+                            format!(
+                                "{} ({} failed: {})",
+                                ratios.len(),
+                                errors.len(),
+                                errors.join("; ")
+                            )
+                        },
+                        format!("{mean:.3}"),
+                        format!("[{:.3}, {:.3}]", mean - half, mean + half),
+                        format!("{ideal:.3}"),
+                        format!("{:.3}", cpu / ratios.len() as f64),
+                    ],
+                ]
+                .concat(),
+            );
+        }
+        series.push(Series::points(format!("{label}: packings"), points));
+        series.push(Series::line(
+            format!("{label}: independent axes"),
+            reference,
+        ));
+    }
+    let mut figure = Figure::new(
+        "Paper 004 Fig. 6: orientation isotropy",
+        "number of ellipsoids N",
+        "ρ̄ = mean λ_max/λ_min",
+    )
+    .log(true, false);
     figure.series = series;
     StudyOutput {
         markdown: table.markdown(),

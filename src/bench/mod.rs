@@ -106,9 +106,16 @@ pub const STUDIES: &[Study] = &[
     },
     Study {
         name: "ellipsoid-table2",
-        summary: "paper 004 Table 2 (R = 2, 5) beside densepack, both predictors",
+        summary:
+            "paper 004 Table 2 (prolate and oblate, R = 2 … 40) beside densepack, both predictors",
         default: true,
         run: ellipsoid::table2,
+    },
+    Study {
+        name: "ellipsoid-isotropy",
+        summary: "paper 004 Fig. 6: orientation isotropy ρ̄ against N beside independent axes",
+        default: true,
+        run: ellipsoid::isotropy,
     },
     Study {
         name: "relaxer",

@@ -234,16 +234,24 @@ fn seeded_kernel<B: Boundary, Q: EventQueue>(
 /// paper 004 Eq. 1; `w` is the direction of Eq. 1b/33 up to sign, which `T` ignores) and the
 /// ratio `ρ = λ_max/λ_min` of its eigenvalues (1 for perfect isotropy, `T = I/3`).
 pub fn orientation_tensor(particles: &[ParticleRecord]) -> ([[f64; 3]; 3], f64) {
+    axis_tensor(particles.iter().filter_map(|p| match p {
+        ParticleRecord::Ellipsoid { orientation, .. } => {
+            let [w, x, y, z] = *orientation;
+            Some(UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z)) * Vec3::x())
+        }
+        _ => None,
+    }))
+}
+
+/// `T = ⟨w wᵀ⟩` of unit vectors `w` and its eigenvalue ratio `ρ = λ_max/λ_min` (zeros and
+/// NaN for no vectors): [`orientation_tensor`] of given axes, e.g. of independent uniform
+/// directions, the reference `ρ̄` of a perfectly isotropic set of the same size.
+pub fn axis_tensor(axes: impl Iterator<Item = Vec3>) -> ([[f64; 3]; 3], f64) {
     let mut t = Matrix3::<f64>::zeros();
     let mut n = 0usize;
-    for p in particles {
-        if let ParticleRecord::Ellipsoid { orientation, .. } = p {
-            let [w, x, y, z] = *orientation;
-            let q = UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z));
-            let axis = q * Vec3::x();
-            t += axis * axis.transpose();
-            n += 1;
-        }
+    for axis in axes {
+        t += axis * axis.transpose();
+        n += 1;
     }
     if n == 0 {
         return ([[0.0; 3]; 3], f64::NAN);
