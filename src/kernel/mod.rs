@@ -618,8 +618,12 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             widths.push(widths[widths.len() - 1] * 0.5);
         }
         self.grid = CellGrid::with_levels(b.min(), b.max(), b.periodic(), &widths, n);
-        let cells: Vec<u32> = (0..n).map(|i| self.home_cell(i)).collect();
-        let keys: Vec<u64> = cells.iter().map(|&c| self.grid.locality_key(c)).collect();
+        // The keys are dropped before `new_index` exists and the cells are looked up again
+        // after the permutation, so the renumbering's scratch peaks at 12 bytes per particle
+        // (memory target: ≤ 300 B per particle at N = 10⁶, BENCHMARKS.md).
+        let keys: Vec<u64> = (0..n)
+            .map(|i| self.grid.locality_key(self.home_cell(i)))
+            .collect();
         let mut order: Vec<u32> = (0..n as u32).collect();
         order.sort_unstable_by_key(|&i| (keys[i as usize], i));
         drop(keys);
@@ -652,8 +656,9 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             }
         }
         self.neighbours = neighbours;
-        for (i, &o) in order.iter().enumerate() {
-            self.grid.insert(i, cells[o as usize]);
+        for i in 0..n {
+            let cell = self.home_cell(i);
+            self.grid.insert(i, cell);
         }
         self.counters.grid_rebuilds += 1;
         self.updates_at_sort = self.counters.neighbour_list_updates;
