@@ -542,8 +542,7 @@ fn isotropic_reference(n: usize, draws: usize, seed: u64) -> f64 {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
     let total: f64 = (0..draws)
         .map(|_| {
-            let axes: Vec<Vec3> = (0..n).map(|_| normal3(&mut rng).normalize()).collect();
-            crate::run::ellipsoid::axis_tensor(axes.into_iter()).1
+            crate::run::ellipsoid::axis_tensor((0..n).map(|_| normal3(&mut rng).normalize())).1
         })
         .sum();
     total / draws as f64

@@ -543,19 +543,16 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         mass_of(self.config.mass, &p.shape, t, self.reference_volume)
     }
 
-    /// Smallest bounding diameter at kernel time `t` (length units).
-    fn min_diameter(&self, t: f64) -> f64 {
+    /// The particles' bounding diameters at kernel time `t` (length units).
+    fn bounding_diameters(&self, t: f64) -> impl Iterator<Item = f64> + '_ {
         self.particles
             .iter()
-            .map(|p| 2.0 * p.shape.bounding_radius(t))
-            .fold(f64::INFINITY, f64::min)
+            .map(move |p| 2.0 * p.shape.bounding_radius(t))
     }
 
+    /// Largest bounding diameter at kernel time `t` (0 without particles).
     fn max_diameter(&self, t: f64) -> f64 {
-        self.particles
-            .iter()
-            .map(|p| 2.0 * p.shape.bounding_radius(t))
-            .fold(0.0, f64::max)
+        self.bounding_diameters(t).fold(0.0, f64::max)
     }
 
     /// Cell width that holds every neighour-list sphere existing now or built up to time `t`.

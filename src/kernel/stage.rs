@@ -467,7 +467,10 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             .map(|p| 2.0 * p.shape.bounding_growth_rate())
             .fold(v_rms, f64::max)
             .max(1e-300);
-        let d = self.min_diameter(0.0).clamp(1e-300, f64::MAX);
+        let d = self
+            .bounding_diameters(0.0)
+            .fold(f64::INFINITY, f64::min)
+            .clamp(1e-300, f64::MAX);
         0.05 * d / closing
     }
 

@@ -287,9 +287,16 @@ impl Ellipsoid {
     /// time `t`, `(a_max − a_mid)·e_max` ([`Envelope::spine`]; zero for platelets and spheres).
     #[inline]
     fn spine(&self, axis: &Vec3, t: f64) -> Vec3 {
+        axis * self.mid_and_spine_length(t).1
+    }
+
+    /// `(a_mid, a_max − a_mid)` at time `t`: the middle semi-axis (the capsule radius of
+    /// [`Envelope`] without its skin) and the half-length of the spine.
+    #[inline]
+    fn mid_and_spine_length(&self, t: f64) -> (f64, f64) {
         let axes = self.semi_axes(t);
         let mid = axes.sum() - axes.max() - axes.min();
-        axis * (axes.max() - mid)
+        (mid, axes.max() - mid)
     }
 
     /// `S = R·diag(semi-axes)·Rᵀ` at time `t`: the symmetric square root of the shape matrix.
@@ -1017,16 +1024,14 @@ impl Collidable for Ellipsoid {
     #[inline]
     fn envelope(&self, spin: &Spin, t: f64, skin: f64) -> Envelope {
         let rot = spin.rotation();
-        let axes = self.semi_axes(t);
-        let long = axes.imax();
-        let mid = axes.sum() - axes.max() - axes.min();
+        let (mid, half_length) = self.mid_and_spine_length(t);
         Envelope {
             root: self.root_matrix(&rot, t),
             m: self.shape_matrix(&rot, t),
-            spine: rot.column(long) * (axes[long] - mid),
+            spine: rot.column(self.axes.imax()) * half_length,
             skin,
             capsule: mid + skin,
-            half_length: axes[long] - mid,
+            half_length,
         }
     }
 

@@ -152,11 +152,13 @@ impl CellGrid {
         })
     }
 
-    fn level_of_cell(&self, cell: u32) -> &Level {
+    /// The level holding `cell` and its index.
+    fn level_of_cell(&self, cell: u32) -> (usize, &Level) {
         self.levels
             .iter()
+            .enumerate()
             .rev()
-            .find(|lv| lv.first <= cell)
+            .find(|(_, lv)| lv.first <= cell)
             .expect("level 0 starts at cell 0")
     }
 
@@ -167,13 +169,7 @@ impl CellGrid {
     /// only the x-neighbours close: the kernel numbers its particles in this order so that a
     /// particle's neighbours share memory pages and cache lines.
     pub fn locality_key(&self, cell: u32) -> u64 {
-        let (level, lv) = self
-            .levels
-            .iter()
-            .enumerate()
-            .rev()
-            .find(|(_, lv)| lv.first <= cell)
-            .expect("level 0 starts at cell 0");
+        let (level, lv) = self.level_of_cell(cell);
         let c = coords(lv, cell - lv.first);
         (level as u64) << 60 | spread_bits(c[0]) | spread_bits(c[1]) << 1 | spread_bits(c[2]) << 2
     }
@@ -223,7 +219,7 @@ impl CellGrid {
 
     /// The cell itself and its up to 26 neighbours of the same level, each once.
     pub fn neighbourhood(&self, cell: u32) -> CellSet {
-        let lv = self.level_of_cell(cell);
+        let (_, lv) = self.level_of_cell(cell);
         let c = coords(lv, cell - lv.first);
         let mut axes = [[0u32; 3]; 3];
         let mut counts = [0usize; 3];

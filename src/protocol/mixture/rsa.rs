@@ -768,9 +768,9 @@ impl ExclusionMap {
         if limit <= 0.0 {
             return;
         }
-        let near = closer_than(body, limit);
         if self.slot.is_empty() {
             // Refined: the live voxels are few, filter them (every image of the body).
+            let near = closer_than(body, limit);
             let len = self.len;
             let reach = body.bounding_radius() + limit;
             let c = body.center();
