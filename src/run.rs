@@ -238,18 +238,7 @@ fn run_job(
     // The kernel works relative to the container's origin (see `container_origin`).
     match &scene.container {
         ContainerSpec::Box { size, periodic, .. } => {
-            let min = Vec3::zeros();
-            let len = Vec3::from(*size);
-            if periodic.iter().all(|&p| p) {
-                dispatch_queue(scene, job, PeriodicBox { min, len }, on_stage, on_progress)
-            } else {
-                let walled = WalledBox {
-                    min,
-                    max: min + len,
-                    periodic: *periodic,
-                };
-                dispatch_queue(scene, job, walled, on_stage, on_progress)
-            }
+            dispatch_box::<Spheres>(scene, job, size, periodic, on_stage, on_progress)
         }
         ContainerSpec::Cylinder { radius, height, .. } => {
             let cylinder = CylinderContainer {
@@ -257,12 +246,130 @@ fn run_job(
                 radius: *radius,
                 height: *height,
             };
-            dispatch_queue(scene, job, cylinder, on_stage, on_progress)
+            dispatch_queue::<Spheres, _>(scene, job, cylinder, on_stage, on_progress)
         }
     }
 }
 
-fn dispatch_queue<B: Boundary + SceneContainer>(
+/// What differs between particle kinds in a run: how a fresh kernel is seeded and how the
+/// finished kernel becomes the written packing. [`run_with`] does the rest (sizes from the
+/// seed, resume, the scene's stages, statistics, verification) for every kind, container and
+/// queue, each combination monomorphised, so the event loop never dispatches dynamically.
+trait ShapeRun {
+    /// The kernel's shape.
+    type Shape: Collidable<Spin: serde::Serialize + serde::de::DeserializeOwned>
+        + serde::Serialize
+        + serde::de::DeserializeOwned;
+
+    /// A fresh kernel for the scene's `true_diameters` (drawn first from `rng`; seeding
+    /// draws after them), or the finished packing of a scene that ends with its seeding.
+    fn seed<B: Boundary + SceneContainer, Q: EventQueue>(
+        scene: &Scene,
+        job: &Job,
+        true_diameters: &[f64],
+        boundary: B,
+        rng: &mut Xoshiro256PlusPlus,
+        started: std::time::Instant,
+    ) -> Result<Seeded<Self::Shape, B, Q>, RunError>;
+
+    /// The packing of the finished `kernel` in the container `original`, and the kind's
+    /// own statistics (in the order they are written).
+    fn packing<B: Boundary, Q: EventQueue>(
+        kernel: Edmd<Self::Shape, B, Q>,
+        original: &B,
+        true_diameters: &[f64],
+        done: &StagesDone,
+    ) -> (Placed, Vec<(String, serde_json::Value)>);
+}
+
+/// What [`ShapeRun::seed`] gives.
+enum Seeded<S: Collidable, B: Boundary, Q: EventQueue> {
+    /// A kernel ready for the first stage, and the seconds its seeding took.
+    Kernel(Edmd<S, B, Q>, f64),
+    /// The packing is complete already (an RSA scene).
+    Finished(RunOutcome),
+}
+
+/// Runs particle kind `R` in `boundary` with event queue `Q`: seeding or resume, the
+/// scene's stages (with checkpoints), the packing, its verification and output.
+fn run_with<R: ShapeRun, B: Boundary + SceneContainer, Q: EventQueue>(
+    scene: &Scene,
+    job: &Job,
+    boundary: B,
+    on_stage: &mut dyn FnMut(usize, &StageReport),
+    on_progress: &mut dyn FnMut(usize, &Progress),
+) -> Result<RunOutcome, RunError> {
+    let started = std::time::Instant::now();
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(scene.seed);
+    // Drawn first from the seed, so a resumed run draws the same sizes again.
+    let true_diameters = scene.true_diameters(&mut rng);
+    // Ellipsoids are volume-equivalent to spheres of the true diameters.
+    let full_size_fraction = sphere_fraction(&true_diameters, boundary.volume());
+    let original = boundary.clone();
+    // The random generator is consumed by seeding and the initial velocities only, so a
+    // checkpoint (taken at a later barrier) needs none of its state.
+    let (mut kernel, from, seeding_seconds) = match job.resume {
+        None => match R::seed::<B, Q>(scene, job, &true_diameters, boundary, &mut rng, started)? {
+            Seeded::Kernel(kernel, seconds) => (kernel, StagesFrom::start(), seconds),
+            Seeded::Finished(outcome) => return Ok(outcome),
+        },
+        Some(file) => {
+            let (kernel, from) = resumed_kernel(scene, file, boundary)?;
+            (kernel, from, 0.0)
+        }
+    };
+    let done = run_stages(
+        scene,
+        job,
+        &mut kernel,
+        full_size_fraction,
+        from,
+        on_stage,
+        on_progress,
+    )?;
+    let (placed, extra) = R::packing(kernel, &original, &true_diameters, &done);
+    let mut stats = stats_of_stages(&done.reports, placed.particles.len());
+    stats.extra.extend(extra);
+    finish(
+        job.scene,
+        original.record(),
+        &original,
+        placed,
+        stats,
+        done.reports,
+        seeding_seconds,
+    )
+}
+
+/// Spheres ([`Sphere`]): the kinds of scene without `[particles.ellipsoid]`.
+struct Spheres;
+
+/// Runs `R` in a box of edge lengths `size` at the origin: the periodic box when every
+/// axis is periodic (no wall code on the hot path), else the walled box.
+fn dispatch_box<R: ShapeRun>(
+    scene: &Scene,
+    job: &Job,
+    size: &[f64; 3],
+    periodic: &[bool; 3],
+    on_stage: &mut dyn FnMut(usize, &StageReport),
+    on_progress: &mut dyn FnMut(usize, &Progress),
+) -> Result<RunOutcome, RunError> {
+    let min = Vec3::zeros();
+    let len = Vec3::from(*size);
+    if periodic.iter().all(|&p| p) {
+        dispatch_queue::<R, _>(scene, job, PeriodicBox { min, len }, on_stage, on_progress)
+    } else {
+        let walled = WalledBox {
+            min,
+            max: min + len,
+            periodic: *periodic,
+        };
+        dispatch_queue::<R, _>(scene, job, walled, on_stage, on_progress)
+    }
+}
+
+/// Runs `R` in `boundary` with the scene's event queue.
+fn dispatch_queue<R: ShapeRun, B: Boundary + SceneContainer>(
     scene: &Scene,
     job: &Job,
     boundary: B,
@@ -270,9 +377,9 @@ fn dispatch_queue<B: Boundary + SceneContainer>(
     on_progress: &mut dyn FnMut(usize, &Progress),
 ) -> Result<RunOutcome, RunError> {
     match scene.queue {
-        QueueKind::Heap => run_with::<B, HeapQueue>(scene, job, boundary, on_stage, on_progress),
+        QueueKind::Heap => run_with::<R, B, HeapQueue>(scene, job, boundary, on_stage, on_progress),
         QueueKind::Calendar => {
-            run_with::<B, CalendarQueue>(scene, job, boundary, on_stage, on_progress)
+            run_with::<R, B, CalendarQueue>(scene, job, boundary, on_stage, on_progress)
         }
     }
 }
@@ -313,128 +420,108 @@ impl SceneContainer for CylinderContainer {
     }
 }
 
-fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
-    scene: &Scene,
-    job: &Job,
-    boundary: B,
-    on_stage: &mut dyn FnMut(usize, &StageReport),
-    on_progress: &mut dyn FnMut(usize, &Progress),
-) -> Result<RunOutcome, RunError> {
-    let started = std::time::Instant::now();
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(scene.seed);
-    // Drawn first from the seed, so a resumed run draws the same sizes again.
-    let true_diameters = scene.true_diameters(&mut rng);
-    let full_size_fraction = sphere_fraction(&true_diameters, boundary.volume());
-    let original = boundary.clone();
-    // The random generator is consumed by seeding and the initial velocities only, so a
-    // checkpoint (taken at a later barrier) needs none of its state.
-    let (mut kernel, from, seeding_seconds): (Edmd<Sphere, B, Q>, _, _) = match job.resume {
-        None => {
-            let scale = scene.seed_scale(&true_diameters);
-            let radii: Vec<f64> = true_diameters.iter().map(|d| 0.5 * scale * d).collect();
-            let (rsa_gap, rsa_wall_gap) = match scene.method {
-                Method::Rsa => {
-                    let gap = scene.particles.gap.unwrap_or(0.0);
-                    (gap, scene.particles.wall_gap.unwrap_or(0.5 * gap))
-                }
-                Method::Edmd => (0.0, 0.0),
-            };
-            let centres = rsa_spheres(
+impl ShapeRun for Spheres {
+    type Shape = Sphere;
+
+    fn seed<B: Boundary + SceneContainer, Q: EventQueue>(
+        scene: &Scene,
+        job: &Job,
+        true_diameters: &[f64],
+        boundary: B,
+        rng: &mut Xoshiro256PlusPlus,
+        started: std::time::Instant,
+    ) -> Result<Seeded<Sphere, B, Q>, RunError> {
+        let scale = scene.seed_scale(true_diameters);
+        let radii: Vec<f64> = true_diameters.iter().map(|d| 0.5 * scale * d).collect();
+        let (rsa_gap, rsa_wall_gap) = match scene.method {
+            Method::Rsa => {
+                let gap = scene.particles.gap.unwrap_or(0.0);
+                (gap, scene.particles.wall_gap.unwrap_or(0.5 * gap))
+            }
+            Method::Edmd => (0.0, 0.0),
+        };
+        let centres = rsa_spheres(
+            &boundary,
+            &radii,
+            rsa_gap,
+            rsa_wall_gap,
+            scene.particles.rsa_max_failures,
+            rng,
+        )?;
+        let seeding_seconds = started.elapsed().as_secs_f64();
+        if scene.method == Method::Rsa {
+            let placed = Placed::spheres(
                 &boundary,
+                centres,
                 &radii,
                 rsa_gap,
-                rsa_wall_gap,
-                scene.particles.rsa_max_failures,
-                &mut rng,
-            )?;
-            let seeding_seconds = started.elapsed().as_secs_f64();
-            if scene.method == Method::Rsa {
-                let placed = Placed::spheres(
-                    &boundary,
-                    centres,
-                    &radii,
-                    rsa_gap,
-                    scene.particles.wall_gap,
-                );
-                let stats = PackingStats {
-                    wall_seconds: started.elapsed().as_secs_f64(),
-                    stop_reason: "rsa_complete".into(),
-                    ..PackingStats::default()
-                };
-                let container = boundary.record();
-                return finish(
-                    job.scene,
-                    container,
-                    &boundary,
-                    placed,
-                    stats,
-                    Vec::new(),
-                    seeding_seconds,
-                );
-            }
-            let shapes = radii.iter().map(|&r| Sphere::new(r)).collect();
-            let kernel = Edmd::new(centres, shapes, boundary, kernel_config(scene), &mut rng);
-            (kernel, StagesFrom::start(), seeding_seconds)
+                scene.particles.wall_gap,
+            );
+            let stats = PackingStats {
+                wall_seconds: started.elapsed().as_secs_f64(),
+                stop_reason: "rsa_complete".into(),
+                ..PackingStats::default()
+            };
+            let container = boundary.record();
+            return finish(
+                job.scene,
+                container,
+                &boundary,
+                placed,
+                stats,
+                Vec::new(),
+                seeding_seconds,
+            )
+            .map(Seeded::Finished);
         }
-        Some(file) => {
-            let (kernel, from) = resumed_kernel(scene, file, boundary)?;
-            (kernel, from, 0.0)
-        }
-    };
-    let done = run_stages(
-        scene,
-        job,
-        &mut kernel,
-        full_size_fraction,
-        from,
-        on_stage,
-        on_progress,
-    )?;
-    // The kernel's other arrays are freed before the output is built, so that the output
-    // and the verification's own index do not add to the kernel's peak memory.
-    let particles = kernel.into_particles();
-    let centres: Vec<Vec3> = particles.iter().map(|p| p.pos).collect();
-    let grown: Vec<f64> = particles
-        .iter()
-        .map(|p| p.shape.bounding_radius(0.0))
-        .collect();
-    drop(particles);
-    let (radii, min_gap, wall_gap) = match done.gap_wall_fraction {
-        // The gap stage starts at the true sizes (validation requires it) and every radius
-        // gains the same at the absolute rate; the guaranteed gap is twice the smallest gain
-        // (they differ only by rounding), and the walls saw the fraction 2λ of each gain
-        // (`Stage::wall_growth`). The true radii come from the seed, so a resumed run writes
-        // the same.
-        Some(fraction) => {
-            let true_radii: Vec<f64> = true_diameters.iter().map(|d| 0.5 * d).collect();
-            let gain = grown
-                .iter()
-                .zip(&true_radii)
-                .map(|(g, t)| g - t)
-                .fold(f64::INFINITY, f64::min)
-                .max(0.0);
-            let min_gap = 2.0 * gain;
-            let wall_gap = (fraction != 0.5).then_some(fraction * min_gap);
-            (true_radii, min_gap, wall_gap)
-        }
-        None => (grown, 0.0, None),
-    };
-    let placed = Placed::spheres(&original, centres, &radii, min_gap, wall_gap);
-    let mut stats = stats_of_stages(&done.reports, radii.len());
-    if !done.gap_history.is_empty() {
-        stats
-            .extra
-            .insert("gap_history".into(), serde_json::json!(done.gap_history));
+        let shapes = radii.iter().map(|&r| Sphere::new(r)).collect();
+        let kernel = Edmd::new(centres, shapes, boundary, kernel_config(scene), rng);
+        Ok(Seeded::Kernel(kernel, seeding_seconds))
     }
-    finish(
-        job.scene,
-        original.record(),
-        &original,
-        placed,
-        stats,
-        done.reports,
-        seeding_seconds,
-    )
+
+    fn packing<B: Boundary, Q: EventQueue>(
+        kernel: Edmd<Sphere, B, Q>,
+        original: &B,
+        true_diameters: &[f64],
+        done: &StagesDone,
+    ) -> (Placed, Vec<(String, serde_json::Value)>) {
+        // The kernel's other arrays are freed before the output is built, so that the output
+        // and the verification's own index do not add to the kernel's peak memory.
+        let particles = kernel.into_particles();
+        let centres: Vec<Vec3> = particles.iter().map(|p| p.pos).collect();
+        let grown: Vec<f64> = particles
+            .iter()
+            .map(|p| p.shape.bounding_radius(0.0))
+            .collect();
+        drop(particles);
+        let (radii, min_gap, wall_gap) = match done.gap_wall_fraction {
+            // The gap stage starts at the true sizes (validation requires it) and every radius
+            // gains the same at the absolute rate; the guaranteed gap is twice the smallest gain
+            // (they differ only by rounding), and the walls saw the fraction 2λ of each gain
+            // (`Stage::wall_growth`). The true radii come from the seed, so a resumed run writes
+            // the same.
+            Some(fraction) => {
+                let true_radii: Vec<f64> = true_diameters.iter().map(|d| 0.5 * d).collect();
+                let gain = grown
+                    .iter()
+                    .zip(&true_radii)
+                    .map(|(g, t)| g - t)
+                    .fold(f64::INFINITY, f64::min)
+                    .max(0.0);
+                let min_gap = 2.0 * gain;
+                let wall_gap = (fraction != 0.5).then_some(fraction * min_gap);
+                (true_radii, min_gap, wall_gap)
+            }
+            None => (grown, 0.0, None),
+        };
+        let placed = Placed::spheres(original, centres, &radii, min_gap, wall_gap);
+        let extra = if done.gap_history.is_empty() {
+            Vec::new()
+        } else {
+            vec![("gap_history".into(), serde_json::json!(done.gap_history))]
+        };
+        (placed, extra)
+    }
 }
 
 /// The kernel `file` stores, rebuilt in the scene's container `boundary` (relative to its

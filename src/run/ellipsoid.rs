@@ -4,18 +4,18 @@
 //! orientation tensor, and the independent verification.
 
 use super::{
-    finish, kernel_config, resumed_kernel, run_stages, sphere_fraction, stats_of_stages, Job,
-    Placed, RunError, RunOutcome, SceneContainer, StagesFrom,
+    dispatch_box, kernel_config, Job, Placed, RunError, RunOutcome, SceneContainer, Seeded,
+    ShapeRun, StagesDone,
 };
-use crate::boundary::{Boundary, PeriodicBox, WalledBox};
+use crate::boundary::Boundary;
 use crate::io::packing::ParticleRecord;
 use crate::io::scene::{ContainerSpec, EllipsoidSpec, Scene};
 use crate::kernel::{Edmd, Progress, StageReport};
 use crate::protocol::rsa::rsa_spheres;
-use crate::queue::{CalendarQueue, EventQueue, HeapQueue, QueueKind};
+use crate::queue::EventQueue;
 use crate::shape::{Ellipsoid, Spin, Vec3};
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion};
-use rand::{Rng, SeedableRng};
+use rand::Rng;
 use rand_distr::StandardNormal;
 use rand_xoshiro::Xoshiro256PlusPlus;
 
@@ -32,34 +32,11 @@ pub(super) fn run_ellipsoid_scene(
         ));
     };
     // Relative to the box's corner, as every kernel (`super::container_origin`).
-    let min = Vec3::zeros();
-    let len = Vec3::from(*size);
-    if periodic.iter().all(|&p| p) {
-        dispatch_queue(scene, job, PeriodicBox { min, len }, on_stage, on_progress)
-    } else {
-        let walled = WalledBox {
-            min,
-            max: min + len,
-            periodic: *periodic,
-        };
-        dispatch_queue(scene, job, walled, on_stage, on_progress)
-    }
+    dispatch_box::<Ellipsoids>(scene, job, size, periodic, on_stage, on_progress)
 }
 
-fn dispatch_queue<B: Boundary + SceneContainer>(
-    scene: &Scene,
-    job: &Job,
-    boundary: B,
-    on_stage: &mut dyn FnMut(usize, &StageReport),
-    on_progress: &mut dyn FnMut(usize, &Progress),
-) -> Result<RunOutcome, RunError> {
-    match scene.queue {
-        QueueKind::Heap => run_with::<B, HeapQueue>(scene, job, boundary, on_stage, on_progress),
-        QueueKind::Calendar => {
-            run_with::<B, CalendarQueue>(scene, job, boundary, on_stage, on_progress)
-        }
-    }
-}
+/// Ellipsoids ([`Ellipsoid`]): the scenes with `[particles.ellipsoid]`.
+struct Ellipsoids;
 
 /// Semi-axes of every particle at seeding: volume-equivalent `diameters`, aspect ratios
 /// fixed or drawn uniformly from their ranges.
@@ -95,93 +72,73 @@ fn random_orientation<R: Rng>(rng: &mut R) -> UnitQuaternion<f64> {
     }
 }
 
-fn run_with<B: Boundary + SceneContainer, Q: EventQueue>(
-    scene: &Scene,
-    job: &Job,
-    boundary: B,
-    on_stage: &mut dyn FnMut(usize, &StageReport),
-    on_progress: &mut dyn FnMut(usize, &Progress),
-) -> Result<RunOutcome, RunError> {
-    let started = std::time::Instant::now();
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(scene.seed);
-    // Drawn first from the seed, so a resumed run draws the same sizes again.
-    let true_diameters = scene.true_diameters(&mut rng);
-    // Ellipsoids are volume-equivalent to spheres of the true diameters.
-    let full_size_fraction = sphere_fraction(&true_diameters, boundary.volume());
-    let original = boundary.clone();
-    let (mut kernel, from, seeding_seconds): (Edmd<Ellipsoid, B, Q>, _, _) = match job.resume {
-        None => {
-            let (kernel, seeding_seconds) =
-                seeded_kernel(scene, &true_diameters, boundary, &mut rng, started)?;
-            (kernel, StagesFrom::start(), seeding_seconds)
-        }
-        Some(file) => {
-            let (kernel, from) = resumed_kernel(scene, file, boundary)?;
-            (kernel, from, 0.0)
-        }
-    };
-    let done = run_stages(
-        scene,
-        job,
-        &mut kernel,
-        full_size_fraction,
-        from,
-        on_stage,
-        on_progress,
-    )?;
-    // Back to the order of the seeding, which the kernel permutes for cache locality.
-    let mut order: Vec<u32> = vec![0; kernel.particles().len()];
-    for (k, &id) in kernel.original_indices().iter().enumerate() {
-        order[id as usize] = k as u32;
+impl ShapeRun for Ellipsoids {
+    type Shape = Ellipsoid;
+
+    fn seed<B: Boundary + SceneContainer, Q: EventQueue>(
+        scene: &Scene,
+        _job: &Job,
+        true_diameters: &[f64],
+        boundary: B,
+        rng: &mut Xoshiro256PlusPlus,
+        started: std::time::Instant,
+    ) -> Result<Seeded<Ellipsoid, B, Q>, RunError> {
+        let (kernel, seeding_seconds) =
+            seeded_kernel(scene, true_diameters, boundary, rng, started)?;
+        Ok(Seeded::Kernel(kernel, seeding_seconds))
     }
-    let particles: Vec<ParticleRecord> = order
-        .iter()
-        .map(|&k| {
-            let p = &kernel.particles()[k as usize];
-            let q = p.spin.orientation;
-            ParticleRecord::Ellipsoid {
-                center: p.pos.into(),
-                semi_axes: p.shape.semi_axes(0.0).into(),
-                orientation: [q.w, q.i, q.j, q.k],
-            }
-        })
-        .collect();
-    let volume = kernel.packing_fraction_at(0.0) * original.volume();
-    drop(kernel);
-    let (tensor, ratio) = orientation_tensor(&particles);
-    let mut stats = stats_of_stages(&done.reports, particles.len());
-    stats
-        .extra
-        .insert("orientation_tensor".into(), serde_json::json!(tensor));
-    stats.extra.insert(
-        "orientation_eigenvalue_ratio".into(),
-        serde_json::json!(ratio),
-    );
-    // Over the whole run, a resumed one included (the counters are in the checkpoint).
-    let failures: u64 = done
-        .reports
-        .iter()
-        .map(|r| r.counts.prediction_failures)
-        .sum();
-    stats.extra.insert(
-        "ellipsoid_prediction_failures".into(),
-        serde_json::json!(failures),
-    );
-    let placed = Placed {
-        particles,
-        volume,
-        min_gap: 0.0,
-        wall_gap: None,
-    };
-    finish(
-        job.scene,
-        original.record(),
-        &original,
-        placed,
-        stats,
-        done.reports,
-        seeding_seconds,
-    )
+
+    fn packing<B: Boundary, Q: EventQueue>(
+        kernel: Edmd<Ellipsoid, B, Q>,
+        original: &B,
+        _true_diameters: &[f64],
+        done: &StagesDone,
+    ) -> (Placed, Vec<(String, serde_json::Value)>) {
+        // Back to the order of the seeding, which the kernel permutes for cache locality.
+        let mut order: Vec<u32> = vec![0; kernel.particles().len()];
+        for (k, &id) in kernel.original_indices().iter().enumerate() {
+            order[id as usize] = k as u32;
+        }
+        let particles: Vec<ParticleRecord> = order
+            .iter()
+            .map(|&k| {
+                let p = &kernel.particles()[k as usize];
+                let q = p.spin.orientation;
+                ParticleRecord::Ellipsoid {
+                    center: p.pos.into(),
+                    semi_axes: p.shape.semi_axes(0.0).into(),
+                    orientation: [q.w, q.i, q.j, q.k],
+                }
+            })
+            .collect();
+        let volume = kernel.packing_fraction_at(0.0) * original.volume();
+        drop(kernel);
+        let (tensor, ratio) = orientation_tensor(&particles);
+        // Over the whole run, a resumed one included (the counters are in the checkpoint).
+        let failures: u64 = done
+            .reports
+            .iter()
+            .map(|r| r.counts.prediction_failures)
+            .sum();
+        let extra = vec![
+            ("orientation_tensor".into(), serde_json::json!(tensor)),
+            (
+                "orientation_eigenvalue_ratio".into(),
+                serde_json::json!(ratio),
+            ),
+            (
+                "ellipsoid_prediction_failures".into(),
+                serde_json::json!(failures),
+            ),
+        ];
+        let placed = Placed {
+            particles,
+            volume,
+            min_gap: 0.0,
+            wall_gap: None,
+        };
+        (placed, extra)
+    }
 }
 
 /// A fresh kernel: bounding spheres of the seeding sizes placed by RSA, uniformly random
