@@ -190,11 +190,23 @@ fn kill_and_resume(name: &str, scene_text: &str) {
         .stderr(Stdio::null())
         .spawn()
         .unwrap();
-    // A third of the way (not later: on a loaded machine the uninterrupted run's time says
-    // little about this one's).
+    // A third of the way, or once the run has replaced its checkpoint three times, whichever
+    // comes first: on a shared machine the uninterrupted run's time says little about this
+    // one's (it may be the faster of the two), while its own checkpoints show its progress.
     let kill_after = uninterrupted.mul_f64(0.3);
     let spawned = Instant::now();
-    while !(ckpt.exists() && spawned.elapsed() >= kill_after) {
+    let mut last_write = None;
+    let mut writes = 0;
+    loop {
+        if let Ok(modified) = std::fs::metadata(&ckpt).and_then(|m| m.modified()) {
+            if last_write != Some(modified) {
+                last_write = Some(modified);
+                writes += 1;
+            }
+            if spawned.elapsed() >= kill_after || writes >= 3 {
+                break;
+            }
+        }
         assert!(
             child.try_wait().unwrap().is_none(),
             "the run ended before it could be killed"
