@@ -374,13 +374,15 @@ fn any_perpendicular(u: &Vector3<f64>) -> Vector3<f64> {
     cross(u, &helper).normalize()
 }
 
-/// `v / |v|`, or `fallback` when `v` vanishes.
-fn unit_or(v: Vector3<f64>, fallback: Vector3<f64>) -> Vector3<f64> {
+/// `v / |v|`, or `fallback()` when `v` vanishes. The fallback is computed only then: most
+/// are cross products (software `fma` on the baseline x86-64 target), which the exact
+/// tests would otherwise pay on every call.
+fn unit_or(v: Vector3<f64>, fallback: impl FnOnce() -> Vector3<f64>) -> Vector3<f64> {
     let n = v.norm();
     if n > 0.0 && n.is_finite() {
         v / n
     } else {
-        fallback
+        fallback()
     }
 }
 
@@ -417,7 +419,7 @@ pub fn intersect_sphere_sphere(a: &Sphere, b: &Sphere) -> Option<Contact> {
     if depth <= tolerance(sphere_size(a).max(sphere_size(b))) {
         return None;
     }
-    let normal = unit_or(d, Vector3::x());
+    let normal = unit_or(d, Vector3::x);
     Some(Contact {
         point: a.center + normal * (a.radius - 0.5 * depth),
         normal,
@@ -438,12 +440,13 @@ pub fn intersect_sphere_cylinder(s: &Sphere, c: &Cylinder) -> Option<SphereCylin
     let l = w_perp.norm();
     let ax = x.abs();
     let axial_sign = if x >= 0.0 { 1.0 } else { -1.0 };
-    // Radial unit vector from the axis towards the sphere centre.
-    let radial = unit_or(w_perp, any_perpendicular(&u));
+    // Radial unit vector from the axis towards the sphere centre (computed only for a
+    // contact on the curved face or the rim).
+    let radial = || unit_or(w_perp, || any_perpendicular(&u));
     // sc1: the farthest point of the cylinder from p_s is a rim point.
     let far = norm2(ax + h, l + c.radius);
     if s.radius - far > tol {
-        let normal = unit_or(c.center - s.center, u);
+        let normal = unit_or(c.center - s.center, || u);
         return Some(SphereCylinderContact {
             kind: SphereCylinderKind::Sc1,
             contact: Contact {
@@ -463,7 +466,7 @@ pub fn intersect_sphere_cylinder(s: &Sphere, c: &Cylinder) -> Option<SphereCylin
         if depth <= tol {
             return None;
         }
-        let normal = -radial;
+        let normal = -radial();
         return Some(SphereCylinderContact {
             kind: SphereCylinderKind::Sc2,
             contact: Contact {
@@ -491,13 +494,14 @@ pub fn intersect_sphere_cylinder(s: &Sphere, c: &Cylinder) -> Option<SphereCylin
     }
     // sc4: the nearest point is the rim point q; intersect iff ‖p_s − q‖ < r_s, i.e.
     // L − r_c < sqrt(r_s² − (|X| − h)²).
-    let q = base_center + radial * c.radius;
     let dist = norm2(ax - h, l - c.radius);
     let depth = s.radius - dist;
     if depth <= tol {
         return None;
     }
-    let normal = unit_or(q - s.center, -radial);
+    let radial = radial();
+    let q = base_center + radial * c.radius;
+    let normal = unit_or(q - s.center, || -radial);
     Some(SphereCylinderContact {
         kind: SphereCylinderKind::Sc4,
         contact: Contact {
@@ -530,7 +534,7 @@ pub fn intersect_disk_disk(a: &Disk, b: &Disk) -> Option<DiskDiskContact> {
         if depth <= tol {
             return None;
         }
-        let normal = unit_or(lateral, any_perpendicular(&a.normal));
+        let normal = unit_or(lateral, || any_perpendicular(&a.normal));
         let kind = if a.radius >= b.radius {
             DiskDiskKind::D1
         } else {
@@ -608,7 +612,7 @@ fn disk_point_nearest_axis(c: &Cylinder, d: &Disk) -> (Vector3<f64>, bool) {
     let n = d.normal;
     let un = u.dot(&n);
     let u_plane = u - n * un;
-    let e1 = unit_or(u_plane, any_perpendicular(&n));
+    let e1 = unit_or(u_plane, || any_perpendicular(&n));
     let e2 = cross(&n, &e1);
     let lam1 = un * un;
     let w = d.center - c.center;
@@ -692,10 +696,12 @@ pub fn intersect_disk_cylinder_side(c: &Cylinder, d: &Disk) -> Option<DiskSideCo
         return None;
     }
     if !pierced {
-        let fallback = unit_or(
-            (d.center - c.center) - u * (d.center - c.center).dot(&u),
-            any_perpendicular(&u),
-        );
+        let fallback = || {
+            unit_or(
+                (d.center - c.center) - u * (d.center - c.center).dot(&u),
+                || any_perpendicular(&u),
+            )
+        };
         return Some(DiskSideContact {
             kind: DiskSideKind::Cd1,
             contact: Contact {
@@ -707,23 +713,21 @@ pub fn intersect_disk_cylinder_side(c: &Cylinder, d: &Disk) -> Option<DiskSideCo
     }
     // x is the piercing point a.
     let a = x;
-    let towards_a = unit_or(
-        a - d.center,
+    let towards_a = unit_or(a - d.center, || {
         cross(
             &d.normal,
-            &unit_or(
-                u - d.normal * u.dot(&d.normal),
-                any_perpendicular(&d.normal),
-            ),
-        ),
-    );
+            &unit_or(u - d.normal * u.dot(&d.normal), || {
+                any_perpendicular(&d.normal)
+            }),
+        )
+    });
     let pt_c = d.center + towards_a * d.radius;
     let rel_c = pt_c - c.center;
     let b_c = c.center + u * rel_c.dot(&u);
     let dist_c = (pt_c - b_c).norm();
     if dist_c < c.radius {
         // The rim lies dist_c beyond the axis: the cylinder must move r_c + dist_c past it.
-        let normal = unit_or(b_c - pt_c, -towards_a);
+        let normal = unit_or(b_c - pt_c, || -towards_a);
         return Some(DiskSideContact {
             kind: DiskSideKind::Cd2,
             contact: Contact {
@@ -737,7 +741,7 @@ pub fn intersect_disk_cylinder_side(c: &Cylinder, d: &Disk) -> Option<DiskSideCo
         kind: DiskSideKind::Cd3,
         contact: Contact {
             point: a,
-            normal: unit_or(d.center - c.center, -d.normal),
+            normal: unit_or(d.center - c.center, || -d.normal),
             depth: 2.0 * c.radius,
         },
     })
@@ -766,7 +770,7 @@ fn parallel_cylinders(a: &Cylinder, b: &Cylinder, tol: f64) -> Option<CylinderCo
     if axial_depth <= tol || lateral_depth <= tol {
         return None;
     }
-    let e = unit_or(lateral, any_perpendicular(&u));
+    let e = unit_or(lateral, || any_perpendicular(&u));
     let mid = 0.5 * ((-ha).max(s - hb) + ha.min(s + hb));
     let point = a.center + u * mid + e * (a.radius - 0.5 * lateral_depth);
     let contact = if lateral_depth <= axial_depth {
@@ -901,7 +905,7 @@ fn cylinder_cylinder_early(a: &Cylinder, b: &Cylinder) -> Option<Option<Cylinder
         let pt1 = a.center + u1 * s1;
         let pt2 = b.center + u2 * s2;
         let sign = if d.dot(&n) >= 0.0 { 1.0 } else { -1.0 };
-        let normal = unit_or(pt2 - pt1, n * sign);
+        let normal = unit_or(pt2 - pt1, || n * sign);
         return Some(Some(CylinderContact::Cc1(Contact {
             point: 0.5 * (pt1 + pt2),
             normal,

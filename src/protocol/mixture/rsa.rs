@@ -599,10 +599,9 @@ impl ImageScan {
         let one_image = 2.0 * (rq + self.max_radius) <= len.min();
         for (j, &[x, y, z, r]) in self.balls.iter().enumerate() {
             // Minimum image per axis, `n_k = round(d_k / L_k) ∈ {−1, 0, 1}`, without a
-            // branch (the sign of a separation is a coin flip, so branches mispredict):
-            // `d_k / L_k + 1.5 ∈ (0.5, 2.5)`, whose truncation is its floor.
+            // branch (the sign of a separation is a coin flip, so branches mispredict).
             let mut d = Vec3::new(x - c.x, y - c.y, z - c.z);
-            let n = Vec3::from_fn(|k, _| ((d[k] * inv[k] + 1.5) as i64 - 1) as f64);
+            let n = Vec3::from_fn(|k, _| nearest_integer(d[k] * inv[k]));
             let t = -n.component_mul(&len);
             d += t;
             let reach = rq + r;
@@ -926,10 +925,18 @@ fn dead_rows(
 }
 
 /// The minimum image of a separation `d` with `|d_k| < L_k` in a periodic box of edges
-/// `len` (`|d_k| ≤ L_k / 2`), by the truncation of [`ImageScan::any_image`] (no `round`
-/// library call).
+/// `len` (`|d_k| ≤ L_k / 2`).
 fn minimum_image(len: &Vec3, d: &Vec3) -> Vec3 {
-    Vec3::from_fn(|k, _| d[k] - ((d[k] / len[k] + 1.5) as i64 - 1) as f64 * len[k])
+    Vec3::from_fn(|k, _| d[k] - nearest_integer(d[k] / len[k]) * len[k])
+}
+
+/// The integer nearest to `x` (ties to even), for `|x| < 2⁵¹`: adding and subtracting
+/// `1.5 · 2⁵²` leaves no fractional bits, so the addition rounds in the floating-point
+/// unit — two additions, where `f64::round` is a library call on the baseline x86-64
+/// target and a saturating `as i64` conversion costs a compare and a select per axis.
+fn nearest_integer(x: f64) -> f64 {
+    const SHIFT: f64 = 6_755_399_441_055_744.0;
+    (x + SHIFT) - SHIFT
 }
 
 /// Calls `f(t)` for each lattice vector `t` with `‖d + t‖ < reach`, `d` a minimum image:
