@@ -849,10 +849,30 @@ fn segment_closest_points(
     })
 }
 
-/// Algorithm 4 up to the base tests: `Some(answer)` when bounding spheres, bounding
-/// capsules, a separating axis along either cylinder axis, parallel axes, the axis
-/// distance or `cc1` decide; `None` when only the base tests ([`base_contacts`]) can tell.
-fn cylinder_cylinder_early(a: &Cylinder, b: &Cylinder) -> Option<Option<CylinderContact>> {
+/// What the steps of Algorithm 4 before the base tests found.
+enum Early {
+    /// The cylinders are disjoint (or touch within the tolerance).
+    Apart,
+    /// They intersect: the typed contact, or `None` when only the verdict was asked for
+    /// and a sufficient test decided it (never `None` otherwise).
+    Meet(Option<CylinderContact>),
+    /// Only the base tests ([`base_contacts`]) can tell.
+    Undecided,
+}
+
+impl From<Option<CylinderContact>> for Early {
+    fn from(found: Option<CylinderContact>) -> Self {
+        found.map_or(Early::Apart, |c| Early::Meet(Some(c)))
+    }
+}
+
+/// Algorithm 4 up to the base tests: bounding spheres, bounding capsules, a separating
+/// axis along either cylinder axis, parallel axes, the axis distance or `cc1` decide, or
+/// the base tests are needed ([`Early::Undecided`]). With `verdict_only`, a sufficient
+/// test runs right after the capsules: inscribed balls about the closest points of the
+/// axis segments (see below), which decides most intersecting pairs without the cross
+/// products of the common normal.
+fn cylinder_cylinder_early(a: &Cylinder, b: &Cylinder, verdict_only: bool) -> Early {
     let tol = tolerance(cylinder_size(a).max(cylinder_size(b)));
     let d = b.center - a.center;
     let (ha, hb) = (a.half_length(), b.half_length());
@@ -860,7 +880,7 @@ fn cylinder_cylinder_early(a: &Cylinder, b: &Cylinder) -> Option<Option<Cylinder
     let ra = (ha * ha + a.radius * a.radius).sqrt();
     let rb = (hb * hb + b.radius * b.radius).sqrt();
     if d.norm_squared() >= (ra + rb) * (ra + rb) {
-        return Some(None);
+        return Early::Apart;
     }
     let (u1, u2) = (a.half_axis / ha, b.half_axis / hb);
     // Bounding capsules (each cylinder lies within its radius of its axis segment): an
@@ -868,7 +888,26 @@ fn cylinder_cylinder_early(a: &Cylinder, b: &Cylinder) -> Option<Option<Cylinder
     let reach = a.radius + b.radius + tol;
     let (s_near, t_near, gap2) = segment_closest_points(&a.center, &u1, ha, &b.center, &u2, hb);
     if gap2 >= reach * reach {
-        return Some(None);
+        return Early::Apart;
+    }
+    // Inscribed balls (a sufficient condition for an intersection): the ball about the
+    // axis point `x_a = c_a + s u₁` (`|s| ≤ h_a`) of radius `ρ_a = min(r_a, h_a − |s|)` lies
+    // in the first cylinder, likewise `ρ_b` about `x_b`. If `|x_a − x_b| < ρ_a + ρ_b − 2δ`
+    // with `ρ_a, ρ_b > δ` (`δ` the margin of [`share_a_deep_point`]), the point `y` of
+    // `[x_a, x_b]` at `max(0, |x_a − x_b| − ρ_b + δ)` from `x_a` has its ball of radius
+    // `δ` in both balls, hence in both cylinders: a penetration far above the touching
+    // tolerance, which the exact tests report. Taken at the closest points of the axes,
+    // where the capsules meet deepest.
+    if verdict_only {
+        let margin = 1e-6 * cylinder_size(a).max(cylinder_size(b));
+        let (rho_a, rho_b) = (
+            a.radius.min(ha - s_near.abs()),
+            b.radius.min(hb - t_near.abs()),
+        );
+        let room = rho_a + rho_b - 2.0 * margin;
+        if rho_a > margin && rho_b > margin && gap2 < room * room {
+            return Early::Meet(None);
+        }
     }
     // Separating axes along either cylinder axis: the projection of a cylinder `(u, h, r)`
     // on a unit `n` is its centre's ± `h |u·n| + r √(1 − (u·n)²)`, so a gap between the
@@ -882,19 +921,19 @@ fn cylinder_cylinder_early(a: &Cylinder, b: &Cylinder) -> Option<Option<Cylinder
         d.dot(n).abs() - half_extent(&u1, ha, a.radius, n) - half_extent(&u2, hb, b.radius, n) > 0.0
     };
     if separates(&u1) || separates(&u2) {
-        return Some(None);
+        return Early::Apart;
     }
     // Step 1: common normal of the axes.
     let c = cross(&u1, &u2);
     let sine = c.norm();
     if sine <= PARALLEL_SINE {
-        return Some(parallel_cylinders(a, b, tol));
+        return parallel_cylinders(a, b, tol).into();
     }
     let n = c / sine;
     // Step 2, 3: distance between the axes.
     let rho = d.dot(&n).abs();
     if a.radius + b.radius - rho <= tol {
-        return Some(None);
+        return Early::Apart;
     }
     // Step 3(b): feet of the common perpendicular, in length units along the unit axes:
     // s₁ = c·(d × u₂)/|c|², s₂ = c·(d × u₁)/|c|² (equal to the paper's t₁‖l₁‖, t₂‖l₂‖).
@@ -906,7 +945,7 @@ fn cylinder_cylinder_early(a: &Cylinder, b: &Cylinder) -> Option<Option<Cylinder
         let pt2 = b.center + u2 * s2;
         let sign = if d.dot(&n) >= 0.0 { 1.0 } else { -1.0 };
         let normal = unit_or(pt2 - pt1, || n * sign);
-        return Some(Some(CylinderContact::Cc1(Contact {
+        return Early::Meet(Some(CylinderContact::Cc1(Contact {
             point: 0.5 * (pt1 + pt2),
             normal,
             depth: a.radius + b.radius - rho,
@@ -921,10 +960,10 @@ fn cylinder_cylinder_early(a: &Cylinder, b: &Cylinder) -> Option<Option<Cylinder
     for n in [g, g - u1 * u1.dot(&g), g - u2 * u2.dot(&g)] {
         let norm = n.norm();
         if norm > 0.0 && separates(&(n / norm)) {
-            return Some(None);
+            return Early::Apart;
         }
     }
-    None
+    Early::Undecided
 }
 
 /// Algorithm 4, steps 3(c) i–iii: all intersections involving a base (or the first one
@@ -1019,7 +1058,14 @@ fn share_a_deep_point(a: &Cylinder, b: &Cylinder) -> bool {
 /// For parallel axes `K` is unbounded along the axes, so the case cannot occur and the
 /// bodies intersect iff both cross-sections and axial intervals overlap.
 pub fn intersect_cylinder_cylinder(a: &Cylinder, b: &Cylinder) -> Option<CylinderContact> {
-    cylinder_cylinder_early(a, b).unwrap_or_else(|| base_contacts(a, b, false))
+    match cylinder_cylinder_early(a, b, false) {
+        Early::Apart => None,
+        Early::Meet(found) => {
+            debug_assert!(found.is_some(), "a typed test without its contact");
+            found
+        }
+        Early::Undecided => base_contacts(a, b, false),
+    }
 }
 
 /// Whether two shapes intersect (touching within [`RELATIVE_TOLERANCE`] does not count).
@@ -1031,9 +1077,10 @@ pub fn overlaps(a: &Shape, b: &Shape) -> bool {
         (Shape::Sphere(s), Shape::Cylinder(c)) | (Shape::Cylinder(c), Shape::Sphere(s)) => {
             intersect_sphere_cylinder(s, c).is_some()
         }
-        (Shape::Cylinder(c), Shape::Cylinder(e)) => match cylinder_cylinder_early(c, e) {
-            Some(found) => found.is_some(),
-            None => share_a_deep_point(c, e) || base_contacts(c, e, true).is_some(),
+        (Shape::Cylinder(c), Shape::Cylinder(e)) => match cylinder_cylinder_early(c, e, true) {
+            Early::Apart => false,
+            Early::Meet(_) => true,
+            Early::Undecided => share_a_deep_point(c, e) || base_contacts(c, e, true).is_some(),
         },
     }
 }
@@ -1044,9 +1091,11 @@ pub fn overlaps(a: &Shape, b: &Shape) -> bool {
 /// with many pairs can look for a decided intersection first.
 pub fn overlaps_decided_early(a: &Shape, b: &Shape) -> Option<bool> {
     match (a, b) {
-        (Shape::Cylinder(c), Shape::Cylinder(e)) => {
-            cylinder_cylinder_early(c, e).map(|found| found.is_some())
-        }
+        (Shape::Cylinder(c), Shape::Cylinder(e)) => match cylinder_cylinder_early(c, e, true) {
+            Early::Apart => Some(false),
+            Early::Meet(_) => Some(true),
+            Early::Undecided => None,
+        },
         _ => Some(overlaps(a, b)),
     }
 }
@@ -1151,18 +1200,23 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_xoshiro::Xoshiro256PlusPlus;
 
-    /// The plain verdict of Algorithm 4: the early steps, else the base tests.
+    /// The plain verdict of Algorithm 4: the early steps (without the inscribed balls),
+    /// else the base tests.
     fn plain(a: &Cylinder, b: &Cylinder) -> bool {
-        cylinder_cylinder_early(a, b)
-            .unwrap_or_else(|| base_contacts(a, b, false))
-            .is_some()
+        match cylinder_cylinder_early(a, b, false) {
+            Early::Apart => false,
+            Early::Meet(found) => found.is_some(),
+            Early::Undecided => base_contacts(a, b, false).is_some(),
+        }
     }
 
-    /// [`share_a_deep_point`] never claims an intersection that the base tests deny, and
-    /// [`overlaps`] (which tries it first) agrees with the plain verdict: random cylinder
-    /// pairs, and for each one the pair moved along its centre line to within `10⁻⁷` of
-    /// the last separation at which the plain verdict changes (found by bisection), where
-    /// a shortcut that is too bold would show.
+    /// The sufficient tests never claim an intersection that the plain verdict denies —
+    /// [`share_a_deep_point`] (before the base tests) and the inscribed balls of
+    /// [`cylinder_cylinder_early`] with `verdict_only` — and [`overlaps`] (which tries
+    /// both) agrees with the plain verdict: random cylinder pairs, and for each one the
+    /// pair moved along its centre line to within `10⁻⁷` of the last separation at which
+    /// the plain verdict changes (found by bisection), where a shortcut that is too bold
+    /// would show.
     #[test]
     fn deep_point_shortcut_agrees_with_the_base_tests() {
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(0xdee9_0017);
@@ -1170,7 +1224,7 @@ mod tests {
             let v = Vector3::from_fn(|_, _| rng.gen_range(-1.0..1.0));
             v / v.norm()
         };
-        let (mut shortcut, mut base_needed) = (0usize, 0usize);
+        let (mut shortcut, mut base_needed, mut balls) = (0usize, 0usize, 0usize);
         for _ in 0..4000 {
             let (ua, ub, ud) = (
                 direction(&mut rng),
@@ -1199,7 +1253,11 @@ mod tests {
                     truth,
                     "{a:?} {b:?}"
                 );
-                if cylinder_cylinder_early(&a, &b).is_none() {
+                if let Early::Meet(None) = cylinder_cylinder_early(&a, &b, true) {
+                    balls += 1;
+                    assert!(truth, "inscribed balls claim an intersection: {a:?} {b:?}");
+                }
+                if let Early::Undecided = cylinder_cylinder_early(&a, &b, false) {
                     base_needed += 1;
                     if share_a_deep_point(&a, &b) {
                         shortcut += 1;
@@ -1208,7 +1266,10 @@ mod tests {
                 }
             }
         }
-        println!("base tests needed {base_needed}, decided by the shortcut {shortcut}");
-        assert!(shortcut > 500 && base_needed > shortcut + 500);
+        println!(
+            "base tests needed {base_needed}, decided by the shortcut {shortcut}; \
+             decided by the inscribed balls {balls}"
+        );
+        assert!(shortcut > 500 && base_needed > shortcut + 500 && balls > 500);
     }
 }
