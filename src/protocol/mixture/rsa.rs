@@ -267,7 +267,7 @@ impl Tiling {
     /// such cell; stops when `visit` returns `true` and returns whether it did.
     ///
     /// The centres of a row within the distance of the segment form one interval (the
-    /// capsule is convex), found in closed form by [`capsule_row_interval`], so no cell
+    /// capsule is convex), found in closed form by [`CapsuleRows::interval`], so no cell
     /// outside it is visited or tested.
     fn rows_near_segment(
         &self,
@@ -277,7 +277,6 @@ impl Tiling {
         mut visit: impl FnMut(&Row) -> bool,
     ) -> bool {
         let r = reach + self.half_diagonal + 1e-9 * self.width.max();
-        let l2 = half_axis.norm_squared();
         // A centre `x` within `r` of the segment has its nearest segment point
         // `p(t) = center + t half_axis`, `t ∈ [−1, 1]`, with `|x_a − p_a(t)| ≤ r` on every
         // axis `a`. Scanning the axes in decreasing `|half_axis_a|`, each coordinate of a
@@ -288,7 +287,11 @@ impl Tiling {
             o.sort_by(|&a, &b| half_axis[b].abs().total_cmp(&half_axis[a].abs()));
             o
         };
-        let index = |a: usize, v: f64| floor_to_i64((v - self.origin[a]) / self.width[a]);
+        // Reciprocals instead of divisions per row and cell (an error of an ulp is far
+        // inside the slack of `r`).
+        let inv_width = self.width.map(|w| 1.0 / w);
+        let inv_half_axis = half_axis.map(|l| if l == 0.0 { 0.0 } else { 1.0 / l });
+        let index = |a: usize, v: f64| floor_to_i64((v - self.origin[a]) * inv_width[a]);
         let centre_of = |a: usize, i: i64| self.origin[a] + (i as f64 + 0.5) * self.width[a];
         // Cell indices along axis `a` within `r` of `p_a(t)` for some `t ∈ [ta, tb]`.
         let span = |a: usize, (ta, tb): (f64, f64)| {
@@ -297,11 +300,11 @@ impl Tiling {
         };
         // The `t ∈ [ta, tb]` with `|x_a − p_a(t)| ≤ r`.
         let narrow = |a: usize, xa: f64, (ta, tb): (f64, f64)| {
-            let l = half_axis[a];
-            if l == 0.0 {
+            let inv = inv_half_axis[a];
+            if inv == 0.0 {
                 return (ta, tb);
             }
-            let (p, q) = ((xa - r - center[a]) / l, (xa + r - center[a]) / l);
+            let (p, q) = ((xa - r - center[a]) * inv, (xa + r - center[a]) * inv);
             (ta.max(p.min(q)), tb.min(p.max(q)))
         };
         let strides = [1, self.counts[0], self.counts[0] * self.counts[1]];
@@ -310,6 +313,7 @@ impl Tiling {
             (i.rem_euclid(m), i.div_euclid(m) as i8)
         };
         let [a0, a1, a2] = order;
+        let capsule = CapsuleRows::new(half_axis, a2, r * r);
         let mut row = Row {
             base: 0,
             stride: strides[a2],
@@ -341,11 +345,11 @@ impl Tiling {
                 row.shift[a1] = s1;
                 row.base = c0 * strides[a0] + c1 * strides[a1];
                 let q = row.x - center + row.along * center[a2];
-                let Some((lo, hi)) = capsule_row_interval(&q, half_axis, a2, l2, r * r) else {
+                let Some((lo, hi)) = capsule.interval(&q) else {
                     continue;
                 };
                 // Cells whose centre `o + (i + ½) w` lies in `center_{a2} + [lo, hi]`.
-                let cell_at = |z: f64| (center[a2] + z - self.origin[a2]) / self.width[a2] - 0.5;
+                let cell_at = |z: f64| (center[a2] + z - self.origin[a2]) * inv_width[a2] - 0.5;
                 (row.first, row.last) = (-floor_to_i64(-cell_at(lo)), floor_to_i64(cell_at(hi)));
                 if row.first <= row.last && visit(&row) {
                     return true;
@@ -412,63 +416,90 @@ impl Row {
     }
 }
 
-/// The `z` with `dist(q + z e_{a₂}, σ)² ≤ r2`, `σ` the segment `± half_axis` (`l2` its
-/// squared half length; a point when zero) and `q` a point with `q_{a₂} = 0`: an interval
-/// (the capsule is convex), `None` when empty. It is the hull of the intervals of the
-/// capsule's three pieces — the balls about both ends, and the infinite cylinder of radius
-/// `√r2` about the axis line cut by the slab `|y · half_axis| ≤ l2` — since their union is
-/// the capsule. On the cylinder, with `ℓ = half_axis_{a₂}` and `p = q · half_axis`,
-/// `|q|² + z² − (p + z ℓ)² / l2 ≤ r2` is a quadratic in `z` whose leading coefficient
-/// `1 − ℓ² / l2` is at least ⅔ when `a₂` is the axis along which the segment extends
-/// least (the callers' choice).
-fn capsule_row_interval(
-    q: &Vec3,
-    half_axis: &Vec3,
-    a2: usize,
-    l2: f64,
+/// The rows of a capsule along the axis `a₂`: the segment `± half_axis` (`l2` its squared
+/// half length; a point when zero) and the squared radius `r2`, with the constants of
+/// [`Self::interval`] computed once per capsule rather than per row.
+struct CapsuleRows {
+    half_axis: Vec3,
     r2: f64,
-) -> Option<(f64, f64)> {
-    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    let q2 = q.norm_squared();
-    let mut ball = |end: f64, across: f64| {
-        // `across`: squared distance from the row to the end point, across the row.
-        let w = r2 - across;
-        if w >= 0.0 {
-            let s = w.sqrt();
-            lo = lo.min(end - s);
-            hi = hi.max(end + s);
-        }
-    };
-    if l2 == 0.0 {
-        ball(0.0, q2);
-        return (lo <= hi).then_some((lo, hi));
-    }
-    let ell = half_axis[a2];
-    let p = q.dot(half_axis);
-    // |q ∓ L|² without the a₂ component: |q|² ∓ 2 p + l2 − ℓ².
-    let across = q2 + l2 - ell * ell;
-    ball(ell, across - 2.0 * p);
-    ball(-ell, across + 2.0 * p);
-    let a = 1.0 - ell * ell / l2;
-    let b = -2.0 * ell * p / l2;
-    let c = q2 - p * p / l2 - r2;
-    let disc = b * b - 4.0 * a * c;
-    if disc >= 0.0 {
-        let s = disc.sqrt();
-        let (mut z0, mut z1) = ((-b - s) / (2.0 * a), (-b + s) / (2.0 * a));
-        if ell != 0.0 {
-            let (u, v) = ((-l2 - p) / ell, (l2 - p) / ell);
-            z0 = z0.max(u.min(v));
-            z1 = z1.min(u.max(v));
-        } else if p.abs() > l2 {
-            z1 = f64::NEG_INFINITY;
-        }
-        if z0 <= z1 {
-            lo = lo.min(z0);
-            hi = hi.max(z1);
+    l2: f64,
+    /// `ℓ = half_axis_{a₂}`, its reciprocal (zero when `ℓ = 0`), `1 / l2`.
+    ell: f64,
+    inv_ell: f64,
+    inv_l2: f64,
+    /// Leading coefficient `1 − ℓ² / l2` of the quadratic on the cylinder and `1 / 2a`.
+    a: f64,
+    inv_2a: f64,
+}
+
+impl CapsuleRows {
+    fn new(half_axis: &Vec3, a2: usize, r2: f64) -> Self {
+        let l2 = half_axis.norm_squared();
+        let ell = half_axis[a2];
+        let inv_l2 = if l2 > 0.0 { 1.0 / l2 } else { 0.0 };
+        let a = 1.0 - ell * ell * inv_l2;
+        Self {
+            half_axis: *half_axis,
+            r2,
+            l2,
+            ell,
+            inv_ell: if ell != 0.0 { 1.0 / ell } else { 0.0 },
+            inv_l2,
+            a,
+            inv_2a: 0.5 / a,
         }
     }
-    (lo <= hi).then_some((lo, hi))
+
+    /// The `z` with `dist(q + z e_{a₂}, σ)² ≤ r2`, `σ` the segment and `q` a point with
+    /// `q_{a₂} = 0`: an interval (the capsule is convex), `None` when empty. It is the hull
+    /// of the intervals of the capsule's three pieces — the balls about both ends, and the
+    /// infinite cylinder of radius `√r2` about the axis line cut by the slab
+    /// `|y · half_axis| ≤ l2` — since their union is the capsule. On the cylinder, with
+    /// `p = q · half_axis`, `|q|² + z² − (p + z ℓ)² / l2 ≤ r2` is a quadratic in `z` whose
+    /// leading coefficient `1 − ℓ² / l2` is at least ⅔ when `a₂` is the axis along which
+    /// the segment extends least (the callers' choice).
+    fn interval(&self, q: &Vec3) -> Option<(f64, f64)> {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        let q2 = q.norm_squared();
+        let mut ball = |end: f64, across: f64| {
+            // `across`: squared distance from the row to the end point, across the row.
+            let w = self.r2 - across;
+            if w >= 0.0 {
+                let s = w.sqrt();
+                lo = lo.min(end - s);
+                hi = hi.max(end + s);
+            }
+        };
+        if self.l2 == 0.0 {
+            ball(0.0, q2);
+            return (lo <= hi).then_some((lo, hi));
+        }
+        let (ell, l2) = (self.ell, self.l2);
+        let p = q.dot(&self.half_axis);
+        // |q ∓ L|² without the a₂ component: |q|² ∓ 2 p + l2 − ℓ².
+        let across = q2 + l2 - ell * ell;
+        ball(ell, across - 2.0 * p);
+        ball(-ell, across + 2.0 * p);
+        let b = -2.0 * ell * p * self.inv_l2;
+        let c = q2 - p * p * self.inv_l2 - self.r2;
+        let disc = b * b - 4.0 * self.a * c;
+        if disc >= 0.0 {
+            let s = disc.sqrt();
+            let (mut z0, mut z1) = ((-b - s) * self.inv_2a, (-b + s) * self.inv_2a);
+            if ell != 0.0 {
+                let (u, v) = ((-l2 - p) * self.inv_ell, (l2 - p) * self.inv_ell);
+                z0 = z0.max(u.min(v));
+                z1 = z1.min(u.max(v));
+            } else if p.abs() > l2 {
+                z1 = f64::NEG_INFINITY;
+            }
+            if z0 <= z1 {
+                lo = lo.min(z0);
+                hi = hi.max(z1);
+            }
+        }
+        (lo <= hi).then_some((lo, hi))
+    }
 }
 
 impl CapsuleGrid {
@@ -1208,7 +1239,7 @@ mod tests {
     use rand::SeedableRng;
     use rand_xoshiro::Xoshiro256PlusPlus;
 
-    /// [`capsule_row_interval`] against the distance to the segment by its nearest point
+    /// [`CapsuleRows::interval`] against the distance to the segment by its nearest point
     /// (the clamped projection): for random segments (also along a coordinate axis, and
     /// points), radii and rows, points of the row inside the interval are within the
     /// radius, points outside it beyond, up to 10⁻⁹ at the ends.
@@ -1239,8 +1270,7 @@ mod tests {
             let r = rng.gen_range(0.05..1.0);
             let mut q = Vec3::from_fn(|_, _| rng.gen_range(-1.5..1.5));
             q[a2] = 0.0;
-            let l2 = half_axis.norm_squared();
-            let interval = capsule_row_interval(&q, &half_axis, a2, l2, r * r);
+            let interval = CapsuleRows::new(&half_axis, a2, r * r).interval(&q);
             let along = Vec3::from_fn(|a, _| if a == a2 { 1.0 } else { 0.0 });
             for k in 0..200 {
                 let z = -3.0 + 6.0 * f64::from(k) / 199.0;
