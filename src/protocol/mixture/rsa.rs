@@ -241,10 +241,9 @@ impl Tiling {
     /// The box cell of the unwrapped cell `i` and the lattice shift (in box edges) from
     /// the box cell to `i`.
     fn wrapped(&self, i: [i64; 3]) -> (usize, Shift) {
-        let [m0, m1, m2] = self.counts;
-        let cell = i[0].rem_euclid(m0) + m0 * (i[1].rem_euclid(m1) + m1 * i[2].rem_euclid(m2));
-        let shift = [0, 1, 2].map(|k| i[k].div_euclid(self.counts[k]) as i8);
-        (cell as usize, shift)
+        let [(c0, s0), (c1, s1), (c2, s2)] = [0, 1, 2].map(|k| wrap_index(i[k], self.counts[k]));
+        let [m0, m1, _] = self.counts;
+        ((c0 + m0 * (c1 + m1 * c2)) as usize, [s0, s1, s2])
     }
 
     /// Calls `visit(cell, shift, x)` (as [`Self::wrapped`], `x` the centre of the unwrapped
@@ -308,10 +307,7 @@ impl Tiling {
             (ta.max(p.min(q)), tb.min(p.max(q)))
         };
         let strides = [1, self.counts[0], self.counts[0] * self.counts[1]];
-        let wrap = |a: usize, i: i64| {
-            let m = self.counts[a];
-            (i.rem_euclid(m), i.div_euclid(m) as i8)
-        };
+        let wrap = |a: usize, i: i64| wrap_index(i, self.counts[a]);
         let [a0, a1, a2] = order;
         let capsule = CapsuleRows::new(half_axis, a2, r * r);
         let mut row = Row {
@@ -360,6 +356,17 @@ impl Tiling {
     }
 }
 
+/// `(i mod m, ⌊i / m⌋)` (Euclidean): the box index of the unwrapped index `i` along an
+/// axis of `m` cells and its lattice shift. Without an integer division for the indices
+/// inside the box (most of them; a division costs tens of cycles, several per row).
+fn wrap_index(i: i64, m: i64) -> (i64, i8) {
+    if (0..m).contains(&i) {
+        (i, 0)
+    } else {
+        (i.rem_euclid(m), i.div_euclid(m) as i8)
+    }
+}
+
 /// One row of cells of [`Tiling::rows_near_segment`]: the unwrapped cells `first..=last`
 /// along `axis` through the point `x` (whose `axis` component is zero), in the box cells
 /// `base + stride · (i mod count)` with the lattice shift `shift` (its `axis` component
@@ -396,10 +403,7 @@ impl Row {
         range: std::ops::RangeInclusive<i64>,
         mut visit: impl FnMut(usize, Shift, &Vec3) -> bool,
     ) -> bool {
-        let (mut c, mut s) = (
-            range.start().rem_euclid(self.count),
-            range.start().div_euclid(self.count) as i8,
-        );
+        let (mut c, mut s) = wrap_index(*range.start(), self.count);
         let mut shift = self.shift;
         for i in range {
             if c == self.count {
