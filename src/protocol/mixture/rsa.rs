@@ -1014,16 +1014,58 @@ const VISITS_PER_CANDIDATE: f64 = 50.0;
 
 /// Consecutive rejections of one body after which the [`ImageScan`] gives way to a
 /// [`CapsuleGrid`] of [`FINE_CELLS_PER_AXIS`] (registering the bodies costs about this many
-/// candidates).
+/// candidates), if [`grid_prunes`].
 const FINE_GRID_AFTER: u64 = 256;
+
+/// Whether a [`CapsuleGrid`] for `boundary` and `pad` would spare a candidate much of the
+/// [`ImageScan`] among `bodies`, for probes of half length at most `probe_half_length`
+/// and bounding radius at most `probe_bounding`. Not when the scan needs only the minimum
+/// image of every body (`2 (R_q + R_max) ≤ L_min`: a few nanoseconds per body) and a
+/// query would still meet at least half the bodies: body `j` is listed in the cells
+/// within `ρ_j + pad + h_d` of its axis and a query visits the cells within `h_d` of its
+/// own, so it meets the body from about the capsule of radius `ρ_j + pad + 2 h_d` about
+/// the axis lengthened by the probe's, of volume `v_j`: with probability
+/// `min(1, v_j / V)` for a uniform centre. Either way the same images are tested exactly
+/// (each structure lists every image that can meet the probe), so the choice changes the
+/// cost of a candidate, never its verdict. Callgrind, 10 + 10, a = 3, f_s 0.2, f_c 0.05
+/// (cells 0.2 wide, every body met): 8 % fewer instructions without the grid.
+fn grid_prunes(
+    boundary: &PeriodicBox,
+    pad: f64,
+    probe_half_length: f64,
+    probe_bounding: f64,
+    bodies: &[Shape],
+) -> bool {
+    let len = boundary.len;
+    let max_bounding = bodies
+        .iter()
+        .map(Shape::bounding_radius)
+        .fold(0.0, f64::max);
+    if 2.0 * (probe_bounding + max_bounding) > len.min() || bodies.is_empty() {
+        return true;
+    }
+    let tiling = Tiling::new(boundary, pad, FINE_CELLS_PER_AXIS as f64);
+    let volume = len.x * len.y * len.z;
+    let met: f64 = bodies
+        .iter()
+        .map(|b| {
+            let (half_axis, radius) = capsule(b);
+            let r = radius + pad + 2.0 * tiling.half_diagonal;
+            let h = half_axis.norm() + probe_half_length;
+            let v = std::f64::consts::PI * r * r * (2.0 * h + 4.0 / 3.0 * r);
+            (v / volume).min(1.0)
+        })
+        .sum();
+    met < 0.5 * bodies.len() as f64
+}
 
 /// Cap on the cells per axis of the [`CapsuleGrid`] that replaces the [`ImageScan`] once
 /// candidates are often rejected.
 const FINE_CELLS_PER_AXIS: usize = 48;
 
 /// The candidate search of one start: [`ImageScan`] until some body has been rejected
-/// [`FINE_GRID_AFTER`] times in a row, then a [`CapsuleGrid`] of cells about one capsule
-/// radius wide.
+/// [`FINE_GRID_AFTER`] times in a row and [`grid_prunes`], then a [`CapsuleGrid`] of cells
+/// about one capsule radius wide.
 enum Search {
     Scan(ImageScan),
     Grid(CapsuleGrid),
@@ -1072,7 +1114,8 @@ pub fn rsa_mixture<R: Rng>(
         let mut stuck = None;
         let mut map: Option<ExclusionMap> = None;
         'bodies: for size in sizes {
-            let inscribed = inscribed_radius(&size.at(Vec3::zeros(), Vec3::z()));
+            let probe_size = size.at(Vec3::zeros(), Vec3::z());
+            let inscribed = inscribed_radius(&probe_size);
             if map.as_ref().is_some_and(|m| m.inscribed > inscribed) {
                 map = None;
             }
@@ -1084,7 +1127,17 @@ pub fn rsa_mixture<R: Rng>(
             // (Computed once the body has been rejected often: it is at least REFINE_AFTER.)
             let mut map_after = None;
             loop {
-                if matches!(search, Search::Scan(_)) && rejections >= FINE_GRID_AFTER {
+                // (Asked once per body, at its FINE_GRID_AFTER-th rejection in a row.)
+                if matches!(search, Search::Scan(_))
+                    && rejections == FINE_GRID_AFTER
+                    && grid_prunes(
+                        boundary,
+                        pad,
+                        capsule(&probe_size).0.norm(),
+                        probe_size.bounding_radius(),
+                        &bodies,
+                    )
+                {
                     let mut grid = CapsuleGrid::new(boundary, pad, FINE_CELLS_PER_AXIS);
                     for (j, b) in bodies.iter().enumerate() {
                         grid.insert(j, b);
