@@ -443,9 +443,10 @@ pub fn intersect_sphere_cylinder(s: &Sphere, c: &Cylinder) -> Option<SphereCylin
     // Radial unit vector from the axis towards the sphere centre (computed only for a
     // contact on the curved face or the rim).
     let radial = || unit_or(w_perp, || any_perpendicular(&u));
-    // sc1: the farthest point of the cylinder from p_s is a rim point.
-    let far = norm2(ax + h, l + c.radius);
-    if s.radius - far > tol {
+    // sc1: the farthest point of the cylinder from p_s is a rim point, at a distance
+    // `far ≥ |X| + h`: only possible when `|X| + h < r_s` (which spares the square root
+    // of `far` in the common case).
+    if ax + h < s.radius && s.radius - norm2(ax + h, l + c.radius) > tol {
         let normal = unit_or(c.center - s.center, || u);
         return Some(SphereCylinderContact {
             kind: SphereCylinderKind::Sc1,
