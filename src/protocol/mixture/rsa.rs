@@ -1117,15 +1117,17 @@ pub fn rsa_mixture<R: Rng>(
         s.check_fits(boundary)?;
     }
     let start = Instant::now();
-    let pad = sizes
+    // Each size once as a body at the origin (its capsule, bounding and inscribed radii).
+    let probes: Vec<Shape> = sizes
         .iter()
-        .map(|s| capsule(&s.at(Vec3::zeros(), Vec3::z())).1)
-        .fold(0.0, f64::max);
+        .map(|s| s.at(Vec3::zeros(), Vec3::z()))
+        .collect();
+    let pad = probes.iter().map(|p| capsule(p).1).fold(0.0, f64::max);
     // Every body reaches a point in at most one image (see `voxel_width`).
     let short = 4.0
-        * sizes
+        * probes
             .iter()
-            .map(|s| s.at(Vec3::zeros(), Vec3::z()).bounding_radius())
+            .map(Shape::bounding_radius)
             .fold(0.0, f64::max)
         <= boundary.len.min();
     let mut candidates = 0u64;
@@ -1139,9 +1141,8 @@ pub fn rsa_mixture<R: Rng>(
         let mut bounding: Vec<f64> = Vec::with_capacity(sizes.len());
         let mut stuck = None;
         let mut map: Option<ExclusionMap> = None;
-        'bodies: for size in sizes {
-            let probe_size = size.at(Vec3::zeros(), Vec3::z());
-            let inscribed = inscribed_radius(&probe_size);
+        'bodies: for (size, probe_size) in sizes.iter().zip(&probes) {
+            let inscribed = inscribed_radius(probe_size);
             let voxel = voxel_width(inscribed, starts == 1 && short);
             if map.as_ref().is_some_and(|m| m.inscribed > inscribed) {
                 map = None;
@@ -1160,7 +1161,7 @@ pub fn rsa_mixture<R: Rng>(
                     && grid_prunes(
                         boundary,
                         pad,
-                        capsule(&probe_size).0.norm(),
+                        capsule(probe_size).0.norm(),
                         probe_size.bounding_radius(),
                         &bodies,
                     )
