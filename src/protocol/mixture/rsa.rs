@@ -20,7 +20,8 @@
 //! * [`CapsuleGrid`]: once a body has been rejected 256 times in a row, a periodic cell
 //!   index over the bodies' capsules (cells about one cylinder radius wide, each body
 //!   registered along its whole axis with the lattice shift of every image), so a
-//!   candidate meets only the images near its own axis.
+//!   candidate meets only the images near its own axis — unless its cells are too coarse
+//!   to spare the scan anything (`grid_prunes`).
 //! * Two passes over those images: first the pairs that the cheap steps of the exact tests
 //!   decide ([`overlaps_decided_early`]: bounding spheres, capsules, a separating axis along
 //!   either cylinder axis, `cc1`), stopping at the first intersection; then, only if none
@@ -33,7 +34,7 @@
 //!   The map is built sooner when it is cheap, after about half its cost in rejections
 //!   (one per 64 voxels of the box and one per 50 voxels the placed bodies' kills visit,
 //!   at least 64 rejections; once a start has got stuck, as early as the box's voxels
-//!   allow, and with narrower voxels: [`voxel_width`]), and while it has at most 4096
+//!   allow, and with narrower voxels: `voxel_width`), and while it has at most 4096
 //!   live voxels it is refined (voxels halved,
 //!   at most 6 times) after as many further rejections as it has live voxels (at least
 //!   64): the dead test is sharper for narrower voxels, so saturated starts are proven
