@@ -538,7 +538,7 @@ where
     Q: EventQueue,
 {
     let stage = file.header.stage;
-    let kernel = Edmd::from_snapshot(file.kernel()?, boundary, kernel_config(scene))
+    let kernel = Edmd::from_snapshot(file.take_kernel()?, boundary, kernel_config(scene))
         .map_err(|e| file.error(e.to_string()))?;
     let from = StagesFrom {
         stage,

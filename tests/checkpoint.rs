@@ -384,6 +384,13 @@ fn a_gap_stage_resumes_to_the_same_gap_and_particles() {
         .unwrap()
         .packing;
     assert_eq!(finished, [1], "only the gap stage is left to finish");
+    // The resume released the file's kernel record (as large as the kernel: it must not stay
+    // resident for the run's length), so the same file cannot be resumed twice.
+    let again = resume_run(&file, None, &mut |_, _| {}, &mut |_, _| {});
+    assert!(
+        again.is_err_and(|e| e.to_string().contains("kernel record was already taken")),
+        "a second resume from the same file must fail clearly"
+    );
     for p in [&checkpointed, &resumed] {
         assert_eq!(p.particles, straight.particles);
         assert_eq!(p.min_gap.to_bits(), straight.min_gap.to_bits());

@@ -17,6 +17,7 @@ use crate::shape::Collidable;
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
+use std::cell::RefCell;
 use std::io::Write;
 use std::path::Path;
 
@@ -107,13 +108,17 @@ where
 }
 
 /// A checkpoint read from disk: the decoded header and the kernel record, decoded by
-/// [`CheckpointFile::kernel`] once the particle type is known.
+/// [`CheckpointFile::take_kernel`] once the particle type is known.
 #[derive(Debug)]
 pub struct CheckpointFile {
     /// The header.
     pub header: CheckpointHeader<'static>,
     path: String,
-    kernel_bytes: Vec<u8>,
+    /// The file's bytes, the kernel record from `kernel_start` on; empty once the kernel is
+    /// taken. They are as large as the kernel itself (320 MB for two million spheres), so a
+    /// resumed run must not keep them: the run holds the file for its whole length.
+    bytes: RefCell<Vec<u8>>,
+    kernel_start: usize,
 }
 
 impl CheckpointFile {
@@ -123,11 +128,11 @@ impl CheckpointFile {
             path: path.display().to_string(),
             source,
         })?;
-        Self::from_bytes(&bytes, &path.display().to_string())
+        Self::from_bytes(bytes, &path.display().to_string())
     }
 
-    /// Decodes the bytes of a checkpoint file; `path` names it in errors.
-    pub fn from_bytes(bytes: &[u8], path: &str) -> Result<Self, CheckpointError> {
+    /// Decodes the header of a checkpoint file's bytes; `path` names it in errors.
+    pub fn from_bytes(bytes: Vec<u8>, path: &str) -> Result<Self, CheckpointError> {
         let format = |message: String| CheckpointError::Format {
             path: path.to_string(),
             message,
@@ -147,10 +152,12 @@ impl CheckpointFile {
                 env!("CARGO_PKG_VERSION")
             )));
         }
+        let kernel_start = bytes.len() - rest.len();
         Ok(Self {
             header,
             path: path.to_string(),
-            kernel_bytes: rest.to_vec(),
+            bytes: RefCell::new(bytes),
+            kernel_start,
         })
     }
 
@@ -162,13 +169,19 @@ impl CheckpointFile {
         }
     }
 
-    /// The kernel snapshot, decoded for particle type `S`.
-    pub fn kernel<S>(&self) -> Result<KernelSnapshot<'static, S>, CheckpointError>
+    /// The kernel snapshot, decoded for particle type `S`, once: the file's bytes are
+    /// released as it is decoded, and a second call is an error.
+    pub fn take_kernel<S>(&self) -> Result<KernelSnapshot<'static, S>, CheckpointError>
     where
         S: Collidable + DeserializeOwned,
         S::Spin: DeserializeOwned,
     {
-        let (snapshot, rest) = postcard::take_from_bytes(&self.kernel_bytes)
+        let bytes = self.bytes.take();
+        let record = bytes
+            .get(self.kernel_start..)
+            .filter(|record| !record.is_empty())
+            .ok_or_else(|| self.error("its kernel record was already taken"))?;
+        let (snapshot, rest) = postcard::take_from_bytes(record)
             .map_err(|e| self.error(format!("damaged kernel record: {e}")))?;
         if !rest.is_empty() {
             return Err(self.error(format!(
