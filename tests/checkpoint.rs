@@ -274,6 +274,12 @@ fn damaged_checkpoints_are_refused_with_exit_code_2() {
         "0",
     ]);
     let good = std::fs::read(&ckpt).unwrap();
+    // The magic line and the header alone: the kernel record is missing, not "taken".
+    let header = densepack::io::checkpoint::CheckpointFile::from_bytes(good.clone(), "good")
+        .unwrap()
+        .header;
+    let header_end =
+        densepack::io::checkpoint::MAGIC.len() + postcard::to_allocvec(&header).unwrap().len();
     let previous = std::fs::read(&out).unwrap();
     let cases: Vec<(&str, Vec<u8>, &str)> = vec![
         ("empty", Vec::new(), "not a densepack checkpoint"),
@@ -290,6 +296,11 @@ fn damaged_checkpoints_are_refused_with_exit_code_2() {
         (
             "truncated kernel record",
             good[..good.len() - 100].to_vec(),
+            "damaged kernel record",
+        ),
+        (
+            "no kernel record",
+            good[..header_end].to_vec(),
             "damaged kernel record",
         ),
         (

@@ -177,11 +177,11 @@ impl CheckpointFile {
         S::Spin: DeserializeOwned,
     {
         let bytes = self.bytes.take();
-        let record = bytes
-            .get(self.kernel_start..)
-            .filter(|record| !record.is_empty())
-            .ok_or_else(|| self.error("its kernel record was already taken"))?;
-        let (snapshot, rest) = postcard::take_from_bytes(record)
+        if bytes.is_empty() {
+            // A file read has at least its magic line: only a taken kernel leaves none.
+            return Err(self.error("its kernel record was already taken"));
+        }
+        let (snapshot, rest) = postcard::take_from_bytes(&bytes[self.kernel_start..])
             .map_err(|e| self.error(format!("damaged kernel record: {e}")))?;
         if !rest.is_empty() {
             return Err(self.error(format!(

@@ -75,6 +75,8 @@ fn random_orientation<R: Rng>(rng: &mut R) -> UnitQuaternion<f64> {
 impl ShapeRun for Ellipsoids {
     type Shape = Ellipsoid;
 
+    /// Bounding spheres of the seeding sizes placed by RSA, uniformly random orientations,
+    /// thermal velocities (all drawn from `rng` after the true diameters).
     fn seed<B: Boundary + SceneContainer, Q: EventQueue>(
         scene: &Scene,
         _job: &Job,
@@ -83,8 +85,39 @@ impl ShapeRun for Ellipsoids {
         rng: &mut Xoshiro256PlusPlus,
         started: std::time::Instant,
     ) -> Result<Seeded<Ellipsoid, B, Q>, RunError> {
-        let (kernel, seeding_seconds) =
-            seeded_kernel(scene, true_diameters, boundary, rng, started)?;
+        let spec = scene
+            .particles
+            .ellipsoid
+            .as_ref()
+            .expect("an ellipsoid scene");
+        let scale = scene.seed_scale(true_diameters);
+        let seeding: Vec<f64> = true_diameters.iter().map(|d| scale * d).collect();
+        let axes = semi_axes_of(&seeding, spec, rng);
+        let bounding: Vec<f64> = axes.iter().map(|a| a.max()).collect();
+        let centres = rsa_spheres(
+            &boundary,
+            &bounding,
+            0.0,
+            0.0,
+            scene.particles.rsa_max_failures,
+            rng,
+        )?;
+        let seeding_seconds = started.elapsed().as_secs_f64();
+        let spins: Vec<Spin> = (0..axes.len())
+            .map(|_| Spin {
+                orientation: random_orientation(rng),
+                omega: Vec3::zeros(),
+            })
+            .collect();
+        let shapes = axes
+            .iter()
+            .map(|a| Ellipsoid {
+                predictor: spec.predictor,
+                contact_tolerance: spec.contact_tolerance,
+                ..Ellipsoid::new(*a)
+            })
+            .collect();
+        let kernel = Edmd::with_spins(centres, shapes, spins, boundary, kernel_config(scene), rng);
         Ok(Seeded::Kernel(kernel, seeding_seconds))
     }
 
@@ -139,52 +172,6 @@ impl ShapeRun for Ellipsoids {
         };
         (placed, extra)
     }
-}
-
-/// A fresh kernel: bounding spheres of the seeding sizes placed by RSA, uniformly random
-/// orientations, thermal velocities (all drawn from `rng` after the true diameters); also
-/// the seconds spent seeding.
-fn seeded_kernel<B: Boundary, Q: EventQueue>(
-    scene: &Scene,
-    true_diameters: &[f64],
-    boundary: B,
-    rng: &mut Xoshiro256PlusPlus,
-    started: std::time::Instant,
-) -> Result<(Edmd<Ellipsoid, B, Q>, f64), RunError> {
-    let spec = scene
-        .particles
-        .ellipsoid
-        .as_ref()
-        .expect("an ellipsoid scene");
-    let scale = scene.seed_scale(true_diameters);
-    let seeding: Vec<f64> = true_diameters.iter().map(|d| scale * d).collect();
-    let axes = semi_axes_of(&seeding, spec, rng);
-    let bounding: Vec<f64> = axes.iter().map(|a| a.max()).collect();
-    let centres = rsa_spheres(
-        &boundary,
-        &bounding,
-        0.0,
-        0.0,
-        scene.particles.rsa_max_failures,
-        rng,
-    )?;
-    let seeding_seconds = started.elapsed().as_secs_f64();
-    let spins: Vec<Spin> = (0..axes.len())
-        .map(|_| Spin {
-            orientation: random_orientation(rng),
-            omega: Vec3::zeros(),
-        })
-        .collect();
-    let shapes = axes
-        .iter()
-        .map(|a| Ellipsoid {
-            predictor: spec.predictor,
-            contact_tolerance: spec.contact_tolerance,
-            ..Ellipsoid::new(*a)
-        })
-        .collect();
-    let kernel = Edmd::with_spins(centres, shapes, spins, boundary, kernel_config(scene), rng);
-    Ok((kernel, seeding_seconds))
 }
 
 /// The second-order orientation tensor `T = ⟨w wᵀ⟩` of the ellipsoids' `a` axes (body x,
