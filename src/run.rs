@@ -660,7 +660,7 @@ where
             observed.gap = gap_rate.map(|rate| units.to_scene(2.0 * rate * observed.stage_time));
             on_progress(k, &observed);
             if let Some(gap) = observed.gap {
-                if barrier % stride == 0 {
+                if barrier.is_multiple_of(stride) {
                     gap_history.push(GapSample {
                         stage_time: observed.stage_time,
                         gap,

@@ -258,3 +258,30 @@ proptest! {
         }
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(4000))]
+
+    /// The kernel's form of the sphere contact time (`Collidable::collision_time`: one
+    /// division, selects instead of jumps, `+∞` for none) is the general solver's time,
+    /// `first_falling_root` of Eq. 22 cut at the window, bit for bit, with and without growth.
+    #[test]
+    fn sphere_collision_time_is_the_general_solvers(
+        p in pair(),
+        t0 in prop_oneof![Just(0.0), 0.0f64..2.0],
+        window in prop_oneof![Just(WINDOW), 0.0f64..1.0],
+    ) {
+        let sigma = p.a.radius(t0) + p.b.radius(t0);
+        let growth = p.a.g + p.b.g;
+        let a = p.dv.norm_squared() - growth * growth;
+        let b = p.dr.dot(&p.dv) - sigma * growth;
+        let c = p.dr.norm_squared() - sigma * sigma;
+        let general = first_falling_root(a, b, c).filter(|&tau| tau <= window);
+        let time = Sphere::collision_time(&p.a, &p.b, &(), &(), &p.dr, &p.dv, t0, window);
+        prop_assert_eq!(
+            time.to_bits(),
+            general.unwrap_or(f64::INFINITY).to_bits(),
+            "{} against {:?}", time, general
+        );
+    }
+}

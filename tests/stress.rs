@@ -406,7 +406,7 @@ fn degenerate_starts() {
     // Simple cubic lattice, every sphere at the same speed, neighbours along each axis
     // approaching head-on: all pairs collide at the same instant, again and again.
     let mut kernel = placed(cube(k as f64 * 1.5), lattice(k, 1.5, 0.0), 1.0, 5);
-    let sign = |i: usize| if i % 2 == 0 { 1.0 } else { -1.0 };
+    let sign = |i: usize| if i.is_multiple_of(2) { 1.0 } else { -1.0 };
     kernel.set_velocities(|m| Vec3::new(sign(m % k), sign((m / k) % k), sign(m / (k * k))));
     let (row, _) = run_case(
         "sc lattice, equal speeds, grow",

@@ -100,7 +100,7 @@ pub fn median(mut xs: Vec<f64>) -> f64 {
     }
     xs.sort_by(f64::total_cmp);
     let m = xs.len() / 2;
-    if xs.len() % 2 == 0 {
+    if xs.len().is_multiple_of(2) {
         0.5 * (xs[m - 1] + xs[m])
     } else {
         xs[m]

@@ -300,7 +300,7 @@ impl Boundary for WalledBox {
     #[inline]
     fn wall_normal(&self, wall: WallId, _: &Vec3) -> Vec3 {
         let mut n = Vec3::zeros();
-        n[(wall / 2) as usize] = if wall % 2 == 0 { 1.0 } else { -1.0 };
+        n[(wall / 2) as usize] = if wall.is_multiple_of(2) { 1.0 } else { -1.0 };
         n
     }
     fn clearance(&self, p: &Vec3, r: f64) -> f64 {

@@ -177,6 +177,7 @@ where
             updates_at_sort: snapshot.updates_at_sort,
             skin: snapshot.skin,
             scratch: Vec::new(),
+            pair_times: Vec::new(),
             mean_radius: snapshot.mean_radius,
             // Set by the stage the kernel continues (`Edmd::continue_stage`).
             wall_growth: 1.0,

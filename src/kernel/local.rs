@@ -107,6 +107,13 @@ impl LocalList {
             self.events[latest] = event;
         }
     }
+
+    /// Records that predictions were dropped: the list must be predicted afresh when it runs
+    /// empty.
+    #[inline]
+    pub(super) fn mark_truncated(&mut self) {
+        self.truncated = true;
+    }
 }
 
 /// Whether every slot of `events` is empty.

@@ -65,7 +65,7 @@ mod local;
 mod stage;
 
 pub use checkpoint::{KernelSnapshot, SnapshotError};
-use local::{EventKind, LocalEvent, LocalLists};
+use local::{EventKind, LocalEvent, LocalList, LocalLists, LOCAL_CAPACITY};
 pub use stage::{Limits, Progress, Stage, StageProgress, StageReport, StopReason, Until};
 
 use crate::boundary::{Boundary, WallId};
@@ -258,6 +258,9 @@ pub struct Edmd<S: Collidable, B: Boundary, Q: EventQueue> {
     skin: f64,
     /// Reused buffer for neighbour-list candidates.
     scratch: Vec<u32>,
+    /// Reused buffer of [`Self::predict_pairs`]: the contact times found in a pass, with
+    /// the neighbour's position in the list.
+    pair_times: Vec<(f64, u32)>,
     /// Mean skin length ([`Collidable::skin_length`]; the bounding radius for spheres) at
     /// the start of the current barrier interval.
     mean_radius: f64,
@@ -384,6 +387,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             updates_at_sort: 0,
             skin,
             scratch: Vec::new(),
+            pair_times: Vec::new(),
             mean_radius: 0.0,
             wall_growth: 1.0,
             stage_clock: 0.0,
@@ -822,11 +826,18 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.kinetic_start = self.kinetic_twice();
     }
 
-    /// Predicts collisions of particle `i` with its neighbours.
+    /// Predicts collisions of particle `i` with its neighbours into its local list, which
+    /// the pass starts afresh (every caller has just cleared it).
     ///
-    /// The hot loop of the kernel (tens of predictions per collision). `i`'s state and local
-    /// list are copied into locals first: the compiler cannot tell the particle array from the
-    /// list array apart, and would otherwise reload `i`'s state after every push.
+    /// The hot loop of the kernel (tens of predictions per collision), in two passes. The
+    /// first computes a contact time for every neighbour ([`Collidable::collision_time`],
+    /// `+∞` for none) and appends it to a buffer whose end moves past it only if it is
+    /// finite: for spheres nothing in this pass branches on a pair's outcome, where acting on
+    /// each prediction at once mispredicted about one branch per neighbour (BENCHMARKS.md,
+    /// design decisions). The second sorts the few contacts found (earliest first, the first
+    /// neighbour on ties) and moves the earliest [`LOCAL_CAPACITY`] into the list — the
+    /// events that pushing every prediction in neighbour order would keep — reading a
+    /// partner's counter only for those.
     #[inline]
     fn predict_pairs(&mut self, i: usize, partners: Partners) {
         let t = self.time;
@@ -846,36 +857,56 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             Partners::AllBut(k) => (k, 0),
             Partners::Above => (i, i + 1),
         };
-        let mut list = self.local.get(i);
         self.prefetch_partners(i);
-        for &entry in self.neighbours[i].iter() {
+        let neighbours = &self.neighbours[i];
+        let mut found = std::mem::take(&mut self.pair_times);
+        if found.len() < neighbours.len() {
+            found.resize(neighbours.len(), (f64::INFINITY, 0));
+        }
+        let mut count = 0;
+        for (k, &entry) in neighbours.iter().enumerate() {
             let j = self.partner_index(entry);
             // A particle's own images are partners like any other.
-            if (j == except || j < first) && !(self.tracks_images() && j == i) {
-                continue;
-            }
-            let pj = &self.particles[j];
-            let dr = self.separation(i, &pos_i, j, &pj.position_at(t), entry);
-            let dv = vel_i - pj.vel;
-            let spin_j = pj.spin_at(t);
-            let horizon = if S::ENVELOPES {
-                max_tau.min((exit_i.min(self.list_exit[j]) - t).max(0.0))
+            let skip = (j == except || j < first) && !(self.tracks_images() && j == i);
+            let tau = if skip {
+                f64::INFINITY
             } else {
-                max_tau
+                let pj = &self.particles[j];
+                let dr = self.separation(i, &pos_i, j, &pj.position_at(t), entry);
+                let dv = vel_i - pj.vel;
+                let spin_j = pj.spin_at(t);
+                let horizon = if S::ENVELOPES {
+                    max_tau.min((exit_i.min(self.list_exit[j]) - t).max(0.0))
+                } else {
+                    max_tau
+                };
+                S::collision_time(&shape_i, &pj.shape, &spin_i, &spin_j, &dr, &dv, t, horizon)
             };
-            if let Some(tau) =
-                S::predict_collision(&shape_i, &pj.shape, &spin_i, &spin_j, &dr, &dv, t, horizon)
-            {
-                list.push(LocalEvent::new(
-                    t + tau,
-                    EventKind::Collision {
-                        partner: entry,
-                        partner_count: self.counts[j],
-                    },
-                ));
-            }
+            // Kept by moving the end past it, not by a branch.
+            found[count] = (tau, k as u32);
+            count += usize::from(tau < f64::INFINITY);
+        }
+        let found_now = &mut found[..count];
+        if count > LOCAL_CAPACITY {
+            // Earliest first, the first neighbour on ties (as pushes in order would keep).
+            found_now.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        }
+        let mut list = LocalList::default();
+        for &(tau, k) in found_now.iter().take(LOCAL_CAPACITY) {
+            let entry = neighbours[k as usize];
+            list.push(LocalEvent::new(
+                t + tau,
+                EventKind::Collision {
+                    partner: entry,
+                    partner_count: self.counts[self.partner_index(entry)],
+                },
+            ));
+        }
+        if count > LOCAL_CAPACITY {
+            list.mark_truncated();
         }
         self.local.set(i, list);
+        self.pair_times = found;
     }
 
     /// Asks the memory system for the state of every partner of `i` before a prediction
@@ -1002,6 +1033,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// the kernel time is that of the last processed event, and `budget.stopped` says why,
     /// or is `None` when only the interval's own event allowance ran out).
     fn run_interval(&mut self, budget: &mut EventBudget) -> bool {
+        let mut hinted: [Option<usize>; 2] = [None; 2];
         loop {
             let Some((i, t)) = self.queue.peek() else {
                 return true;
@@ -1012,7 +1044,20 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             // The particles likely to come next: their local lists, states and neighbour
             // lists load while this event is processed (at 10⁵ particles these loads wait on
             // main memory; measured: BENCHMARKS.md, design decisions).
-            for k in self.queue.upcoming().into_iter().flatten() {
+            // The partners of the particles hinted at one event ago, whose lists have arrived
+            // by now: their counters (the validity check), states and neighbour lists.
+            for k in hinted.into_iter().flatten() {
+                if let Some((_, e)) = self.local.earliest(k) {
+                    if let EventKind::Collision { partner, .. } = e.kind() {
+                        let j = self.partner_index(partner);
+                        prefetch(&self.counts[j]);
+                        prefetch(&self.particles[j]);
+                        prefetch(&self.neighbours[j]);
+                    }
+                }
+            }
+            hinted = self.queue.upcoming();
+            for k in hinted.into_iter().flatten() {
                 self.local.prefetch(k);
                 prefetch(&self.particles[k]);
                 prefetch(&self.neighbours[k]);

@@ -206,6 +206,23 @@ pub trait Collidable: Clone + Send + Sync + 'static {
         t: f64,
         max_tau: f64,
     ) -> Option<f64>;
+    /// [`Collidable::predict_collision`] as a time, `+∞` for no contact: the form the
+    /// kernel's prediction pass uses. A shape whose predictor can run without branches
+    /// overrides it (spheres: [`sphere::sphere_contact_time`]).
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn collision_time(
+        a: &Self,
+        b: &Self,
+        sa: &Self::Spin,
+        sb: &Self::Spin,
+        dr: &Vec3,
+        dv: &Vec3,
+        t: f64,
+        max_tau: f64,
+    ) -> f64 {
+        Self::predict_collision(a, b, sa, sb, dr, dv, t, max_tau).unwrap_or(f64::INFINITY)
+    }
     /// Resolves a contact at time `t`: returns the linear impulse on `a` (the impulse on `b`
     /// is its negative) for masses `ma`, `mb`, and applies the angular part to `sa`, `sb`.
     /// Elastic in the frame of the growing surfaces: the normal gap velocity is reflected, so

@@ -40,27 +40,52 @@ pub fn predict_sphere_sphere(
     dv: &Vec3,
     max_tau: f64,
 ) -> Option<f64> {
+    let tau = sphere_contact_time(sigma, growth, dr, dv, max_tau);
+    (tau < f64::INFINITY).then_some(tau)
+}
+
+/// [`predict_sphere_sphere`] as a time, `+∞` for no contact within `[0, max_tau]`.
+///
+/// For a pair apart (`c > 0`, the common case) both roots in use are the same number
+/// `τ = c / (√(b² − ac) − b) = (b + √(b² − ac)) / (−a)`: the first form is free of
+/// cancellation for an approaching pair (`b < 0`), the second for a receding one, which meets
+/// only when growth closes the gap (`a < 0`). Without growth (`G = 0`, so `a ≥ 0`) only
+/// approaching pairs meet and the first form is the only one: the time is computed for every
+/// pair and kept or replaced by `+∞` by a select, not a jump ([`pick`]). Whether a neighbour
+/// approaches is a coin flip, and a mispredicted jump per neighbour cost more than the
+/// arithmetic (BENCHMARKS.md, design decisions). With growth the form is picked by the sign
+/// of `b`, so one division serves both.
+#[inline]
+pub fn sphere_contact_time(sigma: f64, growth: f64, dr: &Vec3, dv: &Vec3, max_tau: f64) -> f64 {
     let b = dr.dot(dv) - sigma * growth;
     let a = dv.norm_squared() - growth * growth;
     let c = dr.norm_squared() - sigma * sigma;
     if c <= 0.0 {
         // Touching or overlapping by rounding: rare, handled by the general rule.
-        return first_falling_root(a, b, c).filter(|&tau| tau <= max_tau);
+        return first_falling_root(a, b, c)
+            .filter(|&tau| tau <= max_tau)
+            .unwrap_or(f64::INFINITY);
     }
-    // Apart (c > 0), the common case, written without data-dependent branches: whether a
-    // neighbour approaches is a coin flip, and a mispredicted branch costs more than the
-    // arithmetic of both roots. Approaching (b < 0): the root c / (−b + √(b² − ac)) needs
-    // b² ≥ ac. Receding (b ≥ 0): only growth (a < 0) closes the gap, at (b + √(b² − ac))/(−a).
     let disc = b * b - a * c;
     let root = disc.max(0.0).sqrt();
     let approaching = b < 0.0;
-    let tau = if approaching {
-        c / (root - b)
-    } else {
-        (b + root) / -a
-    };
-    let valid = disc >= 0.0 && (approaching || a < 0.0) && tau <= max_tau;
-    valid.then_some(tau)
+    if growth == 0.0 {
+        // The same for every pair of a scene, so this branch is always predicted.
+        let tau = c / (root - b);
+        let valid = (disc >= 0.0) & approaching & (tau <= max_tau);
+        return pick(valid, tau, f64::INFINITY);
+    }
+    let tau = pick(approaching, c, b + root) / pick(approaching, root - b, -a);
+    let valid = (disc >= 0.0) & (approaching | (a < 0.0)) & (tau <= max_tau);
+    pick(valid, tau, f64::INFINITY)
+}
+
+/// `if condition { x } else { y }`, marked unpredictable so that the compiler emits a select
+/// rather than a jump (a plain `if` or a bit mask on `f64` compiles to a jump here; measured:
+/// BENCHMARKS.md, design decisions).
+#[inline(always)]
+fn pick(condition: bool, x: f64, y: f64) -> f64 {
+    core::hint::select_unpredictable(condition, x, y)
 }
 
 impl Collidable for Sphere {
@@ -115,6 +140,20 @@ impl Collidable for Sphere {
         max_tau: f64,
     ) -> Option<f64> {
         predict_sphere_sphere(a.radius(t) + b.radius(t), a.g + b.g, dr, dv, max_tau)
+    }
+
+    #[inline]
+    fn collision_time(
+        a: &Self,
+        b: &Self,
+        _: &(),
+        _: &(),
+        dr: &Vec3,
+        dv: &Vec3,
+        t: f64,
+        max_tau: f64,
+    ) -> f64 {
+        sphere_contact_time(a.radius(t) + b.radius(t), a.g + b.g, dr, dv, max_tau)
     }
 
     #[inline]

@@ -412,7 +412,7 @@ pub fn relax(rve: &mut Rve, settings: &RelaxSettings) -> Result<RelaxReport, Rel
         if steps >= settings.max_steps
             || settings
                 .time_limit
-                .is_some_and(|t| steps % 256 == 0 && start.elapsed() > t)
+                .is_some_and(|t| steps.is_multiple_of(256) && start.elapsed() > t)
         {
             let (sphere_fraction, cylinder_fraction) = rve.fractions();
             return Err(RelaxFailure {
