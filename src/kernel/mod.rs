@@ -836,8 +836,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// each prediction at once mispredicted about one branch per neighbour (BENCHMARKS.md,
     /// design decisions). The second sorts the few contacts found (earliest first, the first
     /// neighbour on ties) and moves the earliest [`LOCAL_CAPACITY`] into the list — the
-    /// events that pushing every prediction in neighbour order would keep — reading a
-    /// partner's counter only for those.
+    /// events that pushing every prediction in neighbour order would keep, up to the order of
+    /// times that round to the same event time — reading a partner's counter only for those.
     #[inline]
     fn predict_pairs(&mut self, i: usize, partners: Partners) {
         let t = self.time;
@@ -1041,11 +1041,11 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             if t > self.barrier_time {
                 return true;
             }
-            // The particles likely to come next: their local lists, states and neighbour
-            // lists load while this event is processed (at 10⁵ particles these loads wait on
-            // main memory; measured: BENCHMARKS.md, design decisions).
-            // The partners of the particles hinted at one event ago, whose lists have arrived
-            // by now: their counters (the validity check), states and neighbour lists.
+            // Data of the next events loads while this one is processed (at 10⁵ particles
+            // these loads wait on main memory; measured: BENCHMARKS.md, design decisions).
+            // First the next partners of the particles hinted at one event ago, whose local
+            // lists have arrived by now: their counters (the validity check), states and
+            // neighbour lists.
             for k in hinted.into_iter().flatten() {
                 if let Some((_, e)) = self.local.earliest(k) {
                     if let EventKind::Collision { partner, .. } = e.kind() {
@@ -1056,6 +1056,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                     }
                 }
             }
+            // Then the particles likely to come next: their local lists, states and
+            // neighbour lists.
             hinted = self.queue.upcoming();
             for k in hinted.into_iter().flatten() {
                 self.local.prefetch(k);
