@@ -278,13 +278,25 @@ impl CellGrid {
         // Squared distance along axis k from p to cell c of its range: the corners of the
         // block of cells lie beyond `reach` and are skipped (a quarter of the cells of a
         // neighbour-list update; measured: BENCHMARKS.md, design decisions). The reach is
-        // widened by 1e-9 so that rounding never drops a cell that holds a body in reach.
-        let gap2 = |k: usize, c: i64, (_, _, _, x, whole): (i64, i64, i64, f64, bool)| -> f64 {
+        // widened by 1e-9 so that rounding never drops a cell that holds a body in reach. On a
+        // bounded axis the end cells also hold the points beyond the grid (`coords_at`
+        // clamps), so they reach out to infinity.
+        let gap2 = |k: usize, c: i64, (_, _, n, x, whole): (i64, i64, i64, f64, bool)| -> f64 {
             if whole {
                 return 0.0;
             }
-            let c = c as f64;
-            let g = (c - x).max(x - (c + 1.0)).max(0.0) * lv.width[k];
+            let open = !self.periodic[k];
+            let lower = if open && c == 0 {
+                f64::NEG_INFINITY
+            } else {
+                c as f64
+            };
+            let upper = if open && c == n - 1 {
+                f64::INFINITY
+            } else {
+                c as f64 + 1.0
+            };
+            let g = (lower - x).max(x - upper).max(0.0) * lv.width[k];
             g * g
         };
         let limit = (reach * (1.0 + 1e-9)).powi(2);
@@ -489,6 +501,50 @@ mod tests {
         let mut m: Vec<_> = g.members(5).collect();
         m.sort();
         assert_eq!(m, vec![0, 1]);
+    }
+
+    /// Every body whose registered point is within the reach (minimum image on periodic
+    /// axes) is reported, for points inside the box and, on bounded axes, beyond it.
+    #[test]
+    fn for_each_within_reports_every_body_in_reach() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(3);
+        let b = Vec3::new(12.0, 9.0, 15.0);
+        for periodic in [[true; 3], [false; 3], [true, false, true]] {
+            let mut g = CellGrid::with_levels(Vec3::zeros(), b, periodic, &[1.7], 400);
+            let point = |rng: &mut rand_xoshiro::Xoshiro256PlusPlus| {
+                Vec3::from_fn(|k, _| {
+                    let x = rng.gen_range(-1.0..b[k] + 1.0);
+                    if periodic[k] {
+                        x.rem_euclid(b[k])
+                    } else {
+                        x
+                    }
+                })
+            };
+            let points: Vec<Vec3> = (0..400).map(|_| point(&mut rng)).collect();
+            for (i, p) in points.iter().enumerate() {
+                g.insert(i, g.cell_at(0, p));
+            }
+            for _ in 0..300 {
+                let q = point(&mut rng);
+                let reach = rng.gen_range(0.05..3.0);
+                let mut found = vec![false; points.len()];
+                g.for_each_within(0, &q, reach, |i| found[i] = true);
+                for (i, p) in points.iter().enumerate() {
+                    let mut d = p - q;
+                    for k in 0..3 {
+                        if periodic[k] {
+                            d[k] -= b[k] * (d[k] / b[k]).round();
+                        }
+                    }
+                    assert!(
+                        found[i] || d.norm() >= reach,
+                        "{periodic:?}: body at {p:?} within {reach} of {q:?} not reported"
+                    );
+                }
+            }
+        }
     }
 
     #[test]
