@@ -171,18 +171,6 @@ impl LocalLists {
         self.truncated[i] = list.truncated;
     }
 
-    /// Empties list `i`.
-    #[inline]
-    pub(super) fn clear(&mut self, i: usize) {
-        self.set(i, LocalList::default());
-    }
-
-    /// Empties every list.
-    pub(super) fn clear_all(&mut self) {
-        self.events.fill([EMPTY; LOCAL_CAPACITY]);
-        self.truncated.fill(false);
-    }
-
     /// Adds an event to list `i` ([`LocalList::push`]).
     #[inline]
     pub(super) fn push(&mut self, i: usize, event: LocalEvent) {
@@ -245,7 +233,7 @@ mod tests {
         assert_eq!(kept, [1.0, 2.0, 3.0, 5.0][..LOCAL_CAPACITY]);
         assert!(lists.exhausted(1), "emptied after dropping predictions");
         assert!(!lists.exhausted(0), "never truncated");
-        lists.clear(1);
+        lists.set(1, LocalList::default());
         assert!(!lists.exhausted(1));
         assert!(lists.earliest(1).is_none());
     }

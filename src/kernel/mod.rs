@@ -813,7 +813,6 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             self.build_all_neighbour_lists();
         }
         self.queue.reset(0.0, interval, n);
-        self.local.clear_all();
         for i in 0..n {
             self.refresh_list_exit(i);
         }
@@ -826,8 +825,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.kinetic_start = self.kinetic_twice();
     }
 
-    /// Predicts collisions of particle `i` with its neighbours into its local list, which
-    /// the pass starts afresh (every caller has just cleared it).
+    /// Predicts collisions of particle `i` with its neighbours into a fresh local list, which
+    /// replaces `i`'s (every caller predicts `i` afresh; [`Self::predict_own`] adds to it).
     ///
     /// The hot loop of the kernel (tens of predictions per collision), in two passes. The
     /// first computes a contact time for every neighbour ([`Collidable::collision_time`],
@@ -1009,7 +1008,6 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     #[inline]
     fn reschedule(&mut self, i: usize) {
         if self.local.exhausted(i) {
-            self.local.clear(i);
             self.refresh_list_exit(i);
             self.predict_pairs(i, Partners::All);
             self.predict_own(i);
@@ -1129,8 +1127,6 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.particles[j].spin = spin_j;
         self.counts[i] = self.counts[i].wrapping_add(1);
         self.counts[j] = self.counts[j].wrapping_add(1);
-        self.local.clear(i);
-        self.local.clear(j);
         // Both before the predictions: `i`'s look no further than `j`'s new list exit.
         self.refresh_list_exit(i);
         self.refresh_list_exit(j);
@@ -1170,7 +1166,6 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     #[inline]
     fn predict_changed(&mut self, i: usize) {
         self.counts[i] = self.counts[i].wrapping_add(1);
-        self.local.clear(i);
         self.refresh_list_exit(i);
         self.predict_pairs(i, Partners::All);
         self.predict_own(i);
@@ -1287,7 +1282,6 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.update_neighbour_list(i);
         // The trajectory is unchanged, but the new neighbours need predictions; the wall
         // event is recomputed with them.
-        self.local.clear(i);
         self.refresh_list_exit(i);
         self.predict_pairs(i, Partners::All);
         self.predict_own(i);

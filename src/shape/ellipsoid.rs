@@ -1146,7 +1146,7 @@ impl Collidable for Ellipsoid {
     }
 
     #[inline]
-    fn predict_collision(
+    fn collision_time(
         a: &Self,
         b: &Self,
         sa: &Spin,
@@ -1155,8 +1155,8 @@ impl Collidable for Ellipsoid {
         dv: &Vec3,
         t: f64,
         max_tau: f64,
-    ) -> Option<f64> {
-        predict_ellipsoid_pair(a, b, sa, sb, dr, dv, t, max_tau)
+    ) -> f64 {
+        predict_ellipsoid_pair(a, b, sa, sb, dr, dv, t, max_tau).unwrap_or(f64::INFINITY)
     }
 
     #[inline]

@@ -51,7 +51,7 @@ pub enum Growth {
 /// A moving, growing hard particle shape that the EDMD kernel can drive.
 ///
 /// Implementers guarantee: sizes are non-negative and non-decreasing in `t` over any window
-/// the kernel asks about; [`Collidable::predict_collision`] never reports a time later than
+/// the kernel asks about; [`Collidable::collision_time`] never reports a time later than
 /// the true first contact (it may report an earlier one only if the pair is then resolved
 /// with zero impulse, which the sphere never needs); predictions are symmetric under swapping
 /// the two particles with `dr → −dr`, `dv → −dv`.
@@ -193,24 +193,12 @@ pub trait Collidable: Clone + Send + Sync + 'static {
 
     /// First contact time `τ ∈ [0, max_tau]` after time `t` of particles `a` and `b`, whose
     /// centres are at relative position `dr = c_a − c_b` (minimum image) and relative velocity
-    /// `dv = v_a − v_b` at time `t`, with rotational states `sa`, `sb` at time `t`. `None` if
-    /// they do not touch within the window.
+    /// `dv = v_a − v_b` at time `t`, with rotational states `sa`, `sb` at time `t`; `+∞` if
+    /// they do not touch within the window. A time rather than an `Option`: the kernel's
+    /// prediction pass keeps the finite ones without a branch per pair, and a shape whose
+    /// predictor can run without branches (spheres: [`sphere::sphere_contact_time`]) keeps
+    /// the whole pass free of them.
     #[allow(clippy::too_many_arguments)]
-    fn predict_collision(
-        a: &Self,
-        b: &Self,
-        sa: &Self::Spin,
-        sb: &Self::Spin,
-        dr: &Vec3,
-        dv: &Vec3,
-        t: f64,
-        max_tau: f64,
-    ) -> Option<f64>;
-    /// [`Collidable::predict_collision`] as a time, `+∞` for no contact: the form the
-    /// kernel's prediction pass uses. A shape whose predictor can run without branches
-    /// overrides it (spheres: [`sphere::sphere_contact_time`]).
-    #[allow(clippy::too_many_arguments)]
-    #[inline]
     fn collision_time(
         a: &Self,
         b: &Self,
@@ -220,9 +208,7 @@ pub trait Collidable: Clone + Send + Sync + 'static {
         dv: &Vec3,
         t: f64,
         max_tau: f64,
-    ) -> f64 {
-        Self::predict_collision(a, b, sa, sb, dr, dv, t, max_tau).unwrap_or(f64::INFINITY)
-    }
+    ) -> f64;
     /// Resolves a contact at time `t`: returns the linear impulse on `a` (the impulse on `b`
     /// is its negative) for masses `ma`, `mb`, and applies the angular part to `sa`, `sb`.
     /// Elastic in the frame of the growing surfaces: the normal gap velocity is reflected, so

@@ -129,20 +129,6 @@ impl Collidable for Sphere {
     }
 
     #[inline]
-    fn predict_collision(
-        a: &Self,
-        b: &Self,
-        _: &(),
-        _: &(),
-        dr: &Vec3,
-        dv: &Vec3,
-        t: f64,
-        max_tau: f64,
-    ) -> Option<f64> {
-        predict_sphere_sphere(a.radius(t) + b.radius(t), a.g + b.g, dr, dv, max_tau)
-    }
-
-    #[inline]
     fn collision_time(
         a: &Self,
         b: &Self,
@@ -191,7 +177,7 @@ mod tests {
         let a = Sphere::new(1.0);
         let dr = Vec3::new(3.0, 0.0, 0.0);
         let dv = Vec3::new(-2.0, 0.0, 0.0);
-        let tau = Sphere::predict_collision(&a, &a, &(), &(), &dr, &dv, 0.0, 10.0).unwrap();
+        let tau = Sphere::collision_time(&a, &a, &(), &(), &dr, &dv, 0.0, 10.0);
         assert!((tau - 0.5).abs() < 1e-15);
     }
 
@@ -199,8 +185,7 @@ mod tests {
     fn growing_resting_spheres_meet_when_radii_fill_gap() {
         let a = Sphere { r0: 1.0, g: 0.25 };
         let dr = Vec3::new(0.0, 3.0, 0.0);
-        let tau =
-            Sphere::predict_collision(&a, &a, &(), &(), &dr, &Vec3::zeros(), 0.0, 10.0).unwrap();
+        let tau = Sphere::collision_time(&a, &a, &(), &(), &dr, &Vec3::zeros(), 0.0, 10.0);
         assert!((tau - 2.0).abs() < 1e-14, "{tau}");
     }
 
