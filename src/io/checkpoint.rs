@@ -30,7 +30,8 @@ pub const MAGIC: &[u8] = b"densepack-checkpoint\n";
 /// 4: ellipsoid envelopes store their capsule (radius and half-length of the spine); the
 /// kernel numbers its particles along a Morton curve of the cells, so a version-3 snapshot
 /// would resume in a numbering the uninterrupted run never had.
-pub const CHECKPOINT_VERSION: u32 = 4;
+/// 5: particles store their state at kernel time 0 and no update time.
+pub const CHECKPOINT_VERSION: u32 = 5;
 
 /// Everything of a checkpoint but the kernel.
 #[derive(Clone, Debug, Serialize, Deserialize)]

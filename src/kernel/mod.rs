@@ -82,16 +82,25 @@ use rand_distr::StandardNormal;
     serialize = "S: serde::Serialize, S::Spin: serde::Serialize",
     deserialize = "S: serde::de::DeserializeOwned, S::Spin: serde::de::DeserializeOwned"
 ))]
+///
+/// The state is stored *at kernel time 0* on the particle's current free flight, not at the
+/// time of its last event: the centre at kernel time `t` is `pos + vel·t`, and an event at
+/// time `t` that changes the velocity by `Δv` moves `pos` by `−Δv·t` (likewise the rotation).
+/// So a particle needs no update time of its own, and a sphere's record (centre, velocity,
+/// radius, growth rate) fills exactly one 64-byte cache line: a pair prediction reads one
+/// line per partner instead of two (measured: BENCHMARKS.md, "Session 10"). Kernel time
+/// restarts at 0 at every barrier ([`Edmd::particles`] are read there), so `vel·t` stays
+/// as small as the steps the per-event update it replaces would take.
+#[repr(align(64))]
 pub struct Particle<S: Collidable> {
-    /// Centre at `time`.
+    /// Centre at kernel time 0 on the current free flight (the centre itself at a barrier).
     pub pos: Vec3,
     /// Velocity (constant between events).
     pub vel: Vec3,
-    /// Kernel time of the last update of `pos`.
-    pub time: f64,
     /// Shape and growth.
     pub shape: S,
-    /// Orientation at `time` and angular velocity (zero-sized for spheres).
+    /// Orientation at kernel time 0 on the current free rotation, and angular velocity
+    /// (zero-sized for spheres).
     pub spin: S::Spin,
 }
 
@@ -99,13 +108,22 @@ impl<S: Collidable> Particle<S> {
     /// Centre at kernel time `t`.
     #[inline]
     pub fn position_at(&self, t: f64) -> Vec3 {
-        self.pos + self.vel * (t - self.time)
+        self.pos + self.vel * t
     }
 
     /// Rotational state at kernel time `t`.
     #[inline]
     pub fn spin_at(&self, t: f64) -> S::Spin {
-        S::spin_after(&self.spin, t - self.time)
+        S::spin_after(&self.spin, t)
+    }
+
+    /// Changes the velocity by `dv` and sets the rotational state to `spin`, both at kernel
+    /// time `t` (an event): the stored line moves so that the centre at `t` stays put.
+    #[inline]
+    fn kick(&mut self, dv: Vec3, spin: S::Spin, t: f64) {
+        self.pos -= dv * t;
+        self.vel += dv;
+        self.spin = S::spin_after(&spin, -t);
     }
 }
 
@@ -319,7 +337,6 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 Particle {
                     pos,
                     vel: Vec3::zeros(),
-                    time: 0.0,
                     shape,
                     spin,
                 }
@@ -726,10 +743,14 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// rebuilds its list (symmetrically).
     fn update_neighbour_list(&mut self, i: usize) {
         let t = self.time;
-        self.advance(i, t);
-        self.boundary.wrap(&mut self.particles[i].pos);
+        // The list sphere is centred on the wrapped centre, and the flight line moves by the
+        // same period.
+        let centre = self.particles[i].position_at(t);
+        let mut wrapped = centre;
+        self.boundary.wrap(&mut wrapped);
+        self.particles[i].pos += wrapped - centre;
         let old = std::mem::take(&mut self.neighbours[i]);
-        self.list_centre[i] = self.particles[i].pos;
+        self.list_centre[i] = wrapped;
         let shape = &self.particles[i].shape;
         let (r, l) = (shape.bounding_radius(t), shape.skin_length(t));
         self.list_radius[i] = self.list_radius_for(r, l);
@@ -782,10 +803,9 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// Brings every particle to kernel time `t` and moves the time origin there.
     fn synchronise_and_rebase(&mut self, t: f64) {
         for p in &mut self.particles {
-            p.pos += p.vel * (t - p.time);
-            p.spin = S::spin_after(&p.spin, t - p.time);
+            p.pos = p.position_at(t);
+            p.spin = p.spin_at(t);
             self.boundary.wrap(&mut p.pos);
-            p.time = 0.0;
             p.shape.rebase(t);
         }
         self.elapsed += t;
@@ -912,10 +932,11 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// pass needs it. The partners are scattered through the particle array; without the
     /// hints their loads wait one after the other behind the loop's mispredicted branches
     /// (measured: BENCHMARKS.md, design decisions, 15–20 % of the fluid's run time).
-    /// `i`'s own list centre comes along: [`Self::predict_own`] reads it after the pass.
+    /// `i`'s own list sphere comes along: [`Self::predict_own`] reads it after the pass.
     #[inline]
     fn prefetch_partners(&self, i: usize) {
         prefetch(&self.list_centre[i]);
+        prefetch(&self.list_radius[i]);
         for &entry in self.neighbours[i].iter() {
             prefetch(&self.particles[self.partner_index(entry)]);
         }
@@ -1019,14 +1040,6 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         }
     }
 
-    #[inline]
-    fn advance(&mut self, i: usize, t: f64) {
-        let p = &mut self.particles[i];
-        p.pos += p.vel * (t - p.time);
-        p.spin = S::spin_after(&p.spin, t - p.time);
-        p.time = t;
-    }
-
     /// Processes events up to the barrier. Returns `false` if `budget` ran out first (then
     /// the kernel time is that of the last processed event, and `budget.stopped` says why,
     /// or is `None` when only the interval's own event allowance ran out).
@@ -1098,17 +1111,15 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     fn collide(&mut self, i: usize, partner: u32) {
         let j = self.partner_index(partner);
         let t = self.time;
-        self.advance(i, t);
         if self.tracks_images() && j == i {
             self.collide_with_own_image(i, partner);
             return;
         }
-        self.advance(j, t);
         let (pi, pj) = (&self.particles[i], &self.particles[j]);
-        let dr = self.separation(i, &pi.pos, j, &pj.pos, partner);
+        let dr = self.separation(i, &pi.position_at(t), j, &pj.position_at(t), partner);
         let dv = pi.vel - pj.vel;
         let (mi, mj) = (self.mass(pi, t), self.mass(pj, t));
-        let (mut spin_i, mut spin_j) = (pi.spin, pj.spin);
+        let (mut spin_i, mut spin_j) = (pi.spin_at(t), pj.spin_at(t));
         let impulse = S::collision_impulse(
             &pi.shape,
             &pj.shape,
@@ -1121,10 +1132,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             mj,
         );
         self.virial += impulse.dot(&dr);
-        self.particles[i].vel += impulse / mi;
-        self.particles[j].vel -= impulse / mj;
-        self.particles[i].spin = spin_i;
-        self.particles[j].spin = spin_j;
+        self.particles[i].kick(impulse / mi, spin_i, t);
+        self.particles[j].kick(-impulse / mj, spin_j, t);
         self.counts[i] = self.counts[i].wrapping_add(1);
         self.counts[j] = self.counts[j].wrapping_add(1);
         // Both before the predictions: `i`'s look no further than `j`'s new list exit.
@@ -1143,11 +1152,10 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
 
     fn hit_wall(&mut self, i: usize, wall: WallId) {
         let t = self.time;
-        self.advance(i, t);
         let p = &self.particles[i];
-        let n = self.boundary.wall_normal(wall, &p.pos);
+        let n = self.boundary.wall_normal(wall, &p.position_at(t));
         let m = self.mass(p, t);
-        let mut spin = p.spin;
+        let mut spin = p.spin_at(t);
         let (dv, virial) = if self.shaped_wall_contacts() {
             p.shape.plane_impulse(&mut spin, &n, &p.vel, t, m)
         } else {
@@ -1155,8 +1163,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             bounding_sphere_wall_impulse(r, g, &n, &p.vel, m)
         };
         self.virial += virial;
-        self.particles[i].vel += dv;
-        self.particles[i].spin = spin;
+        self.particles[i].kick(dv, spin, t);
         self.predict_changed(i);
         self.counters.wall_collisions += 1;
     }
@@ -1172,17 +1179,17 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.reschedule(i);
     }
 
-    /// Resolves the contact of `i` (advanced to now) with its own image `entry`
+    /// Resolves the contact of `i` with its own image `entry`
     /// ([`Collidable::self_image_impulse`]): only its rotation changes.
     fn collide_with_own_image(&mut self, i: usize, entry: u32) {
         let t = self.time;
         let dr = -images::translation(images::shift(entry), &self.period());
         let p = &self.particles[i];
         let m = self.mass(p, t);
-        let mut spin = p.spin;
+        let mut spin = p.spin_at(t);
         let impulse = p.shape.self_image_impulse(&mut spin, &dr, t, m);
         self.virial += impulse.dot(&dr);
-        self.particles[i].spin = spin;
+        self.particles[i].kick(Vec3::zeros(), spin, t);
         self.predict_changed(i);
         self.counters.collisions += 1;
     }

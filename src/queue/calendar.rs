@@ -84,6 +84,28 @@ enum Place {
     Overflow(u32),
 }
 
+/// What the queue knows of one key, in one 24-byte record: a schedule, a cancel or a bucket
+/// hand-over touches a key's time, place and links together, and at 10⁵ keys each separate
+/// array cost a cache miss of its own (measured: BENCHMARKS.md, "Session 10").
+#[derive(Clone, Copy, Debug)]
+struct KeyRecord {
+    /// Time of the key's entry; meaningless when `place` is `Absent`.
+    time: f64,
+    /// Where the key's entry is stored.
+    place: Place,
+    /// `[previous, next]` key in the list of the key's bucket ([`NIL`] at the ends);
+    /// meaningful only while `place` is `Bucket`.
+    link: [u32; 2],
+}
+
+impl KeyRecord {
+    const ABSENT: Self = Self {
+        time: 0.0,
+        place: Place::Absent,
+        link: [NIL; 2],
+    };
+}
+
 /// Calendar queue (Paul 2007): amortized `O(1)` schedule, cancel and pop when the times are
 /// spread over the window given to [`EventQueue::reset`].
 ///
@@ -97,15 +119,11 @@ enum Place {
 ///
 /// Keys are stored as `u32`: keys must be below `u32::MAX`.
 pub struct CalendarQueue {
-    /// `time[k]` is the time of key `k`'s entry; meaningless when `place[k]` is `Absent`.
-    time: Vec<f64>,
-    /// `place[k]` is where key `k`'s entry is stored; `time.len() == place.len()`.
-    place: Vec<Place>,
-    /// `link[k] = [previous, next]` key in the list of key `k`'s bucket ([`NIL`] at the ends);
-    /// meaningful only while `place[k]` is `Bucket`. `link.len() == place.len()`.
-    link: Vec<[u32; 2]>,
+    /// `keys[k]` is what the queue knows of key `k`: its time, where its entry is stored and
+    /// its bucket links ([`KeyRecord`]).
+    keys: Vec<KeyRecord>,
     /// Indexed binary min-heap by `(time, key)` of every entry with bucket `<= cur`;
-    /// `place[front[i]] == Front(i)`. In heap mode (`heads` empty) it holds every entry.
+    /// `keys[front[i]].place == Front(i)`. In heap mode (`heads` empty) it holds every entry.
     front: Vec<u32>,
     /// `heads.len() == nb`, the number of buckets of the calendar (0 in heap mode).
     /// `heads[b]` for `cur < b < nb` is the first key of the list that holds, unsorted,
@@ -113,7 +131,7 @@ pub struct CalendarQueue {
     /// [`NIL`]; buckets `b <= cur` are empty.
     heads: Vec<u32>,
     /// Unsorted keys whose time falls beyond the last bucket;
-    /// `place[overflow[i]] == Overflow(i)`. Empty in heap mode.
+    /// `keys[overflow[i]].place == Overflow(i)`. Empty in heap mode.
     overflow: Vec<u32>,
     /// The current bucket: `cur < nb`, or `cur == 0` in heap mode.
     cur: usize,
@@ -156,7 +174,7 @@ impl CalendarQueue {
     /// Whether entry `a` comes before entry `b` in `(time, key)` order.
     #[inline]
     fn before(&self, a: u32, b: u32) -> bool {
-        match self.time[a as usize].total_cmp(&self.time[b as usize]) {
+        match self.keys[a as usize].time.total_cmp(&self.keys[b as usize].time) {
             Ordering::Less => true,
             Ordering::Greater => false,
             Ordering::Equal => a < b,
@@ -167,7 +185,7 @@ impl CalendarQueue {
     #[inline]
     fn front_set(&mut self, i: usize, k: u32) {
         self.front[i] = k;
-        self.place[k as usize] = Place::Front(i as u32);
+        self.keys[k as usize].place = Place::Front(i as u32);
     }
 
     /// Moves the front entry at `i` towards the root until the heap order holds.
@@ -227,23 +245,23 @@ impl CalendarQueue {
         }
     }
 
-    /// Stores key `k` (absent, with `time[k]` set) where its time belongs.
+    /// Stores key `k` (absent, with its time set) where its time belongs.
     fn insert(&mut self, k: u32) {
-        let s = self.slot(self.time[k as usize]);
+        let s = self.slot(self.keys[k as usize].time);
         if s <= self.cur {
             self.front.push(k);
             let i = self.front.len() - 1;
             self.sift_up(i);
         } else if s < self.heads.len() {
             let head = self.heads[s];
-            self.link[k as usize] = [NIL, head];
+            self.keys[k as usize].link = [NIL, head];
             if head != NIL {
-                self.link[head as usize][0] = k;
+                self.keys[head as usize].link[0] = k;
             }
             self.heads[s] = k;
-            self.place[k as usize] = Place::Bucket(s as u32);
+            self.keys[k as usize].place = Place::Bucket(s as u32);
         } else {
-            self.place[k as usize] = Place::Overflow(self.overflow.len() as u32);
+            self.keys[k as usize].place = Place::Overflow(self.overflow.len() as u32);
             self.overflow.push(k);
         }
     }
@@ -251,28 +269,28 @@ impl CalendarQueue {
     /// Takes key `k` out of whichever structure holds it and marks it absent. Does not
     /// change `len`.
     fn unlink(&mut self, k: u32) {
-        match self.place[k as usize] {
+        match self.keys[k as usize].place {
             Place::Absent => return,
             Place::Front(i) => self.front_remove(i as usize),
             Place::Bucket(index) => {
-                let [prev, next] = self.link[k as usize];
+                let [prev, next] = self.keys[k as usize].link;
                 if prev == NIL {
                     self.heads[index as usize] = next;
                 } else {
-                    self.link[prev as usize][1] = next;
+                    self.keys[prev as usize].link[1] = next;
                 }
                 if next != NIL {
-                    self.link[next as usize][0] = prev;
+                    self.keys[next as usize].link[0] = prev;
                 }
             }
             Place::Overflow(pos) => {
                 self.overflow.swap_remove(pos as usize);
                 if let Some(&moved) = self.overflow.get(pos as usize) {
-                    self.place[moved as usize] = Place::Overflow(pos);
+                    self.keys[moved as usize].place = Place::Overflow(pos);
                 }
             }
         }
-        self.place[k as usize] = Place::Absent;
+        self.keys[k as usize].place = Place::Absent;
     }
 
     /// Drops every bucket: the queue becomes a plain heap (everything goes to the front).
@@ -314,7 +332,7 @@ impl CalendarQueue {
         times.clear();
         times.extend(
             keys.iter()
-                .map(|&k| self.time[k as usize])
+                .map(|&k| self.keys[k as usize].time)
                 .filter(|t| t.is_finite()),
         );
         let nb = keys.len().div_ceil(ENTRIES_PER_BUCKET).next_power_of_two();
@@ -332,7 +350,7 @@ impl CalendarQueue {
         }
 
         for &k in &keys {
-            self.place[k as usize] = Place::Absent;
+            self.keys[k as usize].place = Place::Absent;
         }
         for &k in &keys {
             self.insert(k);
@@ -373,7 +391,7 @@ impl CalendarQueue {
             let mut front = std::mem::take(&mut self.front);
             self.take_bucket(b, &mut front);
             for (i, &k) in front.iter().enumerate() {
-                self.place[k as usize] = Place::Front(i as u32);
+                self.keys[k as usize].place = Place::Front(i as u32);
             }
             self.front = front;
             for i in (0..self.front.len() / 2).rev() {
@@ -388,7 +406,7 @@ impl CalendarQueue {
         let mut k = std::mem::replace(&mut self.heads[b], NIL);
         while k != NIL {
             out.push(k);
-            k = self.link[k as usize][1];
+            k = self.keys[k as usize].link[1];
         }
     }
 
@@ -401,10 +419,8 @@ impl CalendarQueue {
             .ok()
             .filter(|&k| k < u32::MAX)
             .expect("CalendarQueue keys must be below u32::MAX");
-        if key >= self.place.len() {
-            self.place.resize(key + 1, Place::Absent);
-            self.link.resize(key + 1, [NIL; 2]);
-            self.time.resize(key + 1, 0.0);
+        if key >= self.keys.len() {
+            self.keys.resize(key + 1, KeyRecord::ABSENT);
         }
         k
     }
@@ -413,9 +429,7 @@ impl CalendarQueue {
 impl EventQueue for CalendarQueue {
     fn with_capacity(capacity: usize) -> Self {
         Self {
-            time: vec![0.0; capacity],
-            place: vec![Place::Absent; capacity],
-            link: vec![[NIL; 2]; capacity],
+            keys: vec![KeyRecord::ABSENT; capacity],
             front: Vec::new(),
             heads: Vec::new(),
             overflow: Vec::new(),
@@ -431,7 +445,7 @@ impl EventQueue for CalendarQueue {
 
     fn reset(&mut self, start: f64, end: f64, expected_len: usize) {
         for k in self.front.drain(..) {
-            self.place[k as usize] = Place::Absent;
+            self.keys[k as usize].place = Place::Absent;
         }
         let mut keys = std::mem::take(&mut self.scratch_keys);
         keys.clear();
@@ -439,11 +453,11 @@ impl EventQueue for CalendarQueue {
             self.take_bucket(b, &mut keys);
         }
         for &k in &keys {
-            self.place[k as usize] = Place::Absent;
+            self.keys[k as usize].place = Place::Absent;
         }
         self.scratch_keys = keys;
         for k in self.overflow.drain(..) {
-            self.place[k as usize] = Place::Absent;
+            self.keys[k as usize].place = Place::Absent;
         }
         self.len = 0;
         self.ops = 0;
@@ -458,26 +472,26 @@ impl EventQueue for CalendarQueue {
     fn schedule(&mut self, key: usize, time: f64) {
         let k = self.key(key);
         self.ops += 1;
-        match self.place[key] {
+        match self.keys[key].place {
             Place::Absent => self.len += 1,
             // Staying in the front or in the same bucket: update in place.
             Place::Front(i) if self.slot(time) <= self.cur => {
-                self.time[key] = time;
+                self.keys[key].time = time;
                 self.front_fix(i as usize);
                 return;
             }
             Place::Bucket(index) if self.slot(time) == index as usize => {
-                self.time[key] = time;
+                self.keys[key].time = time;
                 return;
             }
             _ => self.unlink(k),
         }
-        self.time[key] = time;
+        self.keys[key].time = time;
         self.insert(k);
     }
 
     fn cancel(&mut self, key: usize) {
-        if self.place.get(key).is_some_and(|&p| p != Place::Absent) {
+        if self.keys.get(key).is_some_and(|r| r.place != Place::Absent) {
             self.unlink(key as u32);
             self.len -= 1;
             self.ops += 1;
@@ -488,7 +502,7 @@ impl EventQueue for CalendarQueue {
         self.settle();
         self.front
             .first()
-            .map(|&k| (k as usize, self.time[k as usize]))
+            .map(|&k| (k as usize, self.keys[k as usize].time))
     }
 
     /// The root's children in the front heap: after the root, one of them is the earliest
@@ -501,10 +515,10 @@ impl EventQueue for CalendarQueue {
         self.settle();
         let &k = self.front.first()?;
         self.front_remove(0);
-        self.place[k as usize] = Place::Absent;
+        self.keys[k as usize].place = Place::Absent;
         self.len -= 1;
         self.ops += 1;
-        Some((k as usize, self.time[k as usize]))
+        Some((k as usize, self.keys[k as usize].time))
     }
 
     fn len(&self) -> usize {
@@ -525,8 +539,8 @@ mod tests {
             assert!(self.cur < nb || (nb == 0 && self.cur == 0));
             assert!(nb > 0 || self.overflow.is_empty());
             for (i, &k) in self.front.iter().enumerate() {
-                assert_eq!(self.place[k as usize], Place::Front(i as u32));
-                assert!(self.slot(self.time[k as usize]) <= self.cur);
+                assert_eq!(self.keys[k as usize].place, Place::Front(i as u32));
+                assert!(self.slot(self.keys[k as usize].time) <= self.cur);
                 if i > 0 {
                     assert!(self.before(self.front[(i - 1) / 2], k));
                 }
@@ -536,21 +550,21 @@ mod tests {
                 assert!(b > self.cur || head == NIL);
                 let (mut prev, mut k) = (NIL, head);
                 while k != NIL {
-                    assert_eq!(self.place[k as usize], Place::Bucket(b as u32));
-                    assert_eq!(self.slot(self.time[k as usize]), b);
-                    assert_eq!(self.link[k as usize][0], prev);
+                    assert_eq!(self.keys[k as usize].place, Place::Bucket(b as u32));
+                    assert_eq!(self.slot(self.keys[k as usize].time), b);
+                    assert_eq!(self.keys[k as usize].link[0], prev);
                     in_buckets += 1;
                     assert!(in_buckets <= self.len, "a bucket list has a cycle");
-                    (prev, k) = (k, self.link[k as usize][1]);
+                    (prev, k) = (k, self.keys[k as usize].link[1]);
                 }
             }
             for (pos, &k) in self.overflow.iter().enumerate() {
-                assert_eq!(self.place[k as usize], Place::Overflow(pos as u32));
-                assert_eq!(self.slot(self.time[k as usize]), nb);
+                assert_eq!(self.keys[k as usize].place, Place::Overflow(pos as u32));
+                assert_eq!(self.slot(self.keys[k as usize].time), nb);
             }
             let total = self.front.len() + in_buckets + self.overflow.len();
             assert_eq!(total, self.len);
-            let present = self.place.iter().filter(|&&p| p != Place::Absent).count();
+            let present = self.keys.iter().filter(|r| r.place != Place::Absent).count();
             assert_eq!(present, self.len);
         }
     }
