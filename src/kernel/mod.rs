@@ -756,7 +756,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.list_radius[i] = self.list_radius_for(r, l);
         if S::ENVELOPES {
             let p = &self.particles[i];
-            self.envelopes[i] = p.shape.envelope(&p.spin, t, self.list_radius[i] - r);
+            self.envelopes[i] = p.shape.envelope(&p.spin_at(t), t, self.list_radius[i] - r);
         }
         self.grid.remove(i);
         let cell = self.home_cell(i);
@@ -1300,25 +1300,29 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
 /// Hints the processor to load the cache lines of `value` (a no-op where there is no
 /// prefetch instruction). Written here: no maintained crate offers a portable prefetch.
 ///
-/// One hint per 64 bytes from the start, plus one for the last byte: a value that does not
-/// start on a line boundary touches one line more than its size suggests. The count is a
-/// compile-time constant, so the hints unroll without a branch (counting the lines the
-/// address actually touches costs a data-dependent loop per partner).
+/// One hint per 64 bytes from the start, plus one for the last byte unless `T` is aligned
+/// to whole lines: a value that does not start on a line boundary touches one line more
+/// than its size suggests. The count is a compile-time constant, so the hints unroll
+/// without a branch (counting the lines the address actually touches costs a
+/// data-dependent loop per partner).
 #[inline(always)]
 fn prefetch<T>(value: &T) {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
         let start = value as *const T as *const i8;
+        let size = std::mem::size_of::<T>();
         let mut offset = 0;
-        while offset < std::mem::size_of::<T>() {
+        while offset < size {
             // SAFETY: prefetching never faults, and the address lies inside `value`.
             unsafe { _mm_prefetch::<_MM_HINT_T0>(start.wrapping_add(offset)) };
             offset += 64;
         }
-        let last = start.wrapping_add(std::mem::size_of::<T>().saturating_sub(1));
-        // SAFETY: as above.
-        unsafe { _mm_prefetch::<_MM_HINT_T0>(last) };
+        if std::mem::align_of::<T>() % 64 != 0 {
+            let last = start.wrapping_add(size.saturating_sub(1));
+            // SAFETY: as above.
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(last) };
+        }
     }
     #[cfg(not(target_arch = "x86_64"))]
     let _ = value;
@@ -1438,6 +1442,34 @@ mod tests {
     #[test]
     fn a_neighbour_list_fills_one_cache_line() {
         assert_eq!(std::mem::size_of::<super::NeighbourList>(), 64);
+    }
+
+    /// A sphere's record is one aligned cache line: a partner costs one line to load.
+    #[test]
+    fn a_sphere_particle_fills_one_cache_line() {
+        type P = super::Particle<crate::shape::Sphere>;
+        assert_eq!(std::mem::size_of::<P>(), 64);
+        assert_eq!(std::mem::align_of::<P>(), 64);
+    }
+
+    /// The state is kept at kernel time 0: an event's velocity change moves the stored line
+    /// so that the centre at the event time stays put, and the new velocity holds after it.
+    /// (Dyadic values: every operation is exact, so the check is exact too.)
+    #[test]
+    fn a_kick_keeps_the_centre_at_the_event_time() {
+        use crate::shape::{Sphere, Vec3};
+        let mut p = super::Particle {
+            pos: Vec3::new(1.0, 2.0, 3.0),
+            vel: Vec3::new(0.5, -0.25, 2.0),
+            shape: Sphere::new(0.5),
+            spin: (),
+        };
+        let t = 0.75;
+        let before = p.position_at(t);
+        p.kick(Vec3::new(-1.0, 0.5, 0.125), (), t);
+        assert_eq!(p.position_at(t), before);
+        assert_eq!(p.vel, Vec3::new(-0.5, 0.25, 2.125));
+        assert_eq!(p.position_at(t + 2.0), before + p.vel * 2.0);
     }
 
     #[test]
