@@ -1318,7 +1318,7 @@ fn prefetch<T>(value: &T) {
             unsafe { _mm_prefetch::<_MM_HINT_T0>(start.wrapping_add(offset)) };
             offset += 64;
         }
-        if std::mem::align_of::<T>() % 64 != 0 {
+        if !std::mem::align_of::<T>().is_multiple_of(64) {
             let last = start.wrapping_add(size.saturating_sub(1));
             // SAFETY: as above.
             unsafe { _mm_prefetch::<_MM_HINT_T0>(last) };
