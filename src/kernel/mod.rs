@@ -2,17 +2,18 @@
 //! (Lubachevsky–Stillinger), generic over shape, container and event queue.
 //!
 //! # How an event flows
-//! Every particle keeps a *delayed state* — centre and velocity at its own last update time —
-//! and a *local event list*: the events predicted for it since its trajectory last changed,
-//! each event carrying the collision counter of its partner. The queue ([`crate::queue`])
+//! Every particle keeps a *delayed state* — its free flight since its own last event, stored
+//! by the flight's point at kernel time 0 ([`Particle`]) — and a *local event list*: the
+//! events predicted for it since its trajectory last changed, each event carrying the
+//! collision counter of its partner. The queue ([`crate::queue`])
 //! holds one entry per particle, the earliest of its local list. The loop peeks the queue:
 //!
 //! 1. an event later than the *time barrier* ends the interval (see below);
 //! 2. a pair event whose partner's counter has moved on is stale: it is dropped from the
 //!    local list and the particle is rescheduled with its next local event;
-//! 3. a collision brings both particles up to date, applies the impulse
-//!    ([`Collidable::collision_impulse`]), bumps both counters, clears both local lists and
-//!    predicts new events for both against their neighbour lists;
+//! 3. a collision evaluates both particles at the event time, applies the impulse
+//!    ([`Collidable::collision_impulse`]) by changing both flights, bumps both counters and
+//!    predicts fresh local lists for both against their neighbour lists;
 //! 4. a wall contact does the same for one particle ([`Boundary`]);
 //! 5. a neighbour-list update (the particle reaches the surface of its neighbour-list
 //!    sphere) moves its sphere to where it is now, re-registers it in the cell grid (the
@@ -20,7 +21,7 @@
 //!    trajectory did not change, so events of others that name it stay valid.
 //!
 //! Shapes that rotate carry their orientation and angular velocity in the delayed state too
-//! ([`Collidable::Spin`]); the kernel advances it with the centre and hands it to the shape's
+//! ([`Collidable::Spin`]); the kernel keeps it like the centre and hands it to the shape's
 //! predictions and impulses without knowing what it is (`()` for spheres).
 //!
 //! # Neighbour lists
@@ -75,22 +76,24 @@ use crate::spatial::{CellGrid, MAX_LEVELS};
 use rand::Rng;
 use rand_distr::StandardNormal;
 
-/// A particle in delayed state: centre, velocity and rotational state valid at `time`.
-/// Serialisable (for checkpoints) when the shape and its rotational state are.
+/// A particle in delayed state: its free flight since its own last event, which only that
+/// particle's events change (the kernel never advances a particle that takes no part in an
+/// event). Serialisable (for checkpoints) when the shape and its rotational state are.
+///
+/// The flight is stored by its point at *kernel time 0* rather than at the time of the last
+/// event: the centre at kernel time `t` is `pos + vel·t`, and an event at time `t` that
+/// changes the velocity by `Δv` moves `pos` by `−Δv·t` (likewise the rotation). So a particle
+/// needs no update time of its own, and a sphere's record (centre, velocity, radius, growth
+/// rate) fills exactly one aligned 64-byte cache line instead of straddling two (72 bytes
+/// with an update time): a pair prediction loads one line per partner (measured:
+/// BENCHMARKS.md, "Session 10"). Kernel time restarts at 0 at every barrier, where the
+/// stored point is the centre itself ([`Edmd::particles`] are read there), so `vel·t` spans
+/// at most one barrier interval, as the per-event extrapolation it replaces did.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 #[serde(bound(
     serialize = "S: serde::Serialize, S::Spin: serde::Serialize",
     deserialize = "S: serde::de::DeserializeOwned, S::Spin: serde::de::DeserializeOwned"
 ))]
-///
-/// The state is stored *at kernel time 0* on the particle's current free flight, not at the
-/// time of its last event: the centre at kernel time `t` is `pos + vel·t`, and an event at
-/// time `t` that changes the velocity by `Δv` moves `pos` by `−Δv·t` (likewise the rotation).
-/// So a particle needs no update time of its own, and a sphere's record (centre, velocity,
-/// radius, growth rate) fills exactly one 64-byte cache line: a pair prediction reads one
-/// line per partner instead of two (measured: BENCHMARKS.md, "Session 10"). Kernel time
-/// restarts at 0 at every barrier ([`Edmd::particles`] are read there), so `vel·t` stays
-/// as small as the steps the per-event update it replaces would take.
 #[repr(align(64))]
 pub struct Particle<S: Collidable> {
     /// Centre at kernel time 0 on the current free flight (the centre itself at a barrier).
