@@ -840,6 +840,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             self.refresh_list_exit(i);
         }
         for i in 0..n {
+            self.prefetch_partners(i);
             self.predict_pairs(i, Partners::Above);
             self.predict_own(i);
             self.reschedule(i);
@@ -860,6 +861,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// neighbour on ties) and moves the earliest [`LOCAL_CAPACITY`] into the list — the
     /// events that pushing every prediction in neighbour order would keep, up to the order of
     /// times that round to the same event time — reading a partner's counter only for those.
+    /// The caller has asked for the partners' states first ([`Self::prefetch_partners`]).
     #[inline]
     fn predict_pairs(&mut self, i: usize, partners: Partners) {
         let t = self.time;
@@ -879,7 +881,6 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             Partners::AllBut(k) => (k, 0),
             Partners::Above => (i, i + 1),
         };
-        self.prefetch_partners(i);
         let neighbours = &self.neighbours[i];
         let mut found = std::mem::take(&mut self.pair_times);
         if found.len() < neighbours.len() {
@@ -936,6 +937,9 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// hints their loads wait one after the other behind the loop's mispredicted branches
     /// (measured: BENCHMARKS.md, design decisions, 15–20 % of the fluid's run time).
     /// `i`'s own list sphere comes along: [`Self::predict_own`] reads it after the pass.
+    /// Once per pass: a collision asks for both particles' partners before the first pass
+    /// (the second particle's load while the first is predicted), the other callers through
+    /// [`Self::predict_afresh`].
     #[inline]
     fn prefetch_partners(&self, i: usize) {
         prefetch(&self.list_centre[i]);
@@ -1032,9 +1036,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     #[inline]
     fn reschedule(&mut self, i: usize) {
         if self.local.exhausted(i) {
-            self.refresh_list_exit(i);
-            self.predict_pairs(i, Partners::All);
-            self.predict_own(i);
+            self.predict_afresh(i);
             self.counters.repredictions += 1;
         }
         match self.local.earliest(i) {
@@ -1144,6 +1146,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.refresh_list_exit(j);
         // `j`'s partners load while `i`'s are predicted.
         self.prefetch_partners(j);
+        self.prefetch_partners(i);
         self.predict_pairs(i, Partners::All);
         self.predict_own(i);
         self.predict_pairs(j, Partners::AllBut(i));
@@ -1176,10 +1179,18 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     #[inline]
     fn predict_changed(&mut self, i: usize) {
         self.counts[i] = self.counts[i].wrapping_add(1);
+        self.predict_afresh(i);
+        self.reschedule(i);
+    }
+
+    /// Predicts all of `i`'s events into a fresh local list: its list exit, its partners'
+    /// states requested ahead of the pass, the pairs, then the wall and the list update.
+    #[inline]
+    fn predict_afresh(&mut self, i: usize) {
         self.refresh_list_exit(i);
+        self.prefetch_partners(i);
         self.predict_pairs(i, Partners::All);
         self.predict_own(i);
-        self.reschedule(i);
     }
 
     /// Resolves the contact of `i` with its own image `entry`
@@ -1292,9 +1303,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.update_neighbour_list(i);
         // The trajectory is unchanged, but the new neighbours need predictions; the wall
         // event is recomputed with them.
-        self.refresh_list_exit(i);
-        self.predict_pairs(i, Partners::All);
-        self.predict_own(i);
+        self.predict_afresh(i);
         self.reschedule(i);
         self.counters.neighbour_list_updates += 1;
     }
