@@ -2,7 +2,9 @@
 //! `first_falling_root` against exact rational arithmetic, the sphere–sphere contact time
 //! against a brute-force march of the gap, its symmetry and its translation invariance.
 
-use densepack::shape::{first_falling_root, Collidable, Sphere, Vec3};
+use densepack::shape::{
+    exit_ball_time, first_falling_root, stays_in_ball, Collidable, Sphere, Vec3,
+};
 use num_bigint::BigInt;
 use num_rational::BigRational;
 use num_traits::{Signed, Zero};
@@ -286,5 +288,76 @@ proptest! {
             general.unwrap_or(f64::INFINITY).to_bits(),
             "{} against {:?}", time, general
         );
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(4000))]
+
+    /// The kernel's screen (`Collidable::may_collide`) never rejects a pair that
+    /// `collision_time` gives a time, with and without growth, also with the horizon at the
+    /// contact time itself or one rounding step either side of it (where the screen's
+    /// products and the time's division round differently).
+    #[test]
+    fn sphere_screen_never_rejects_a_contact(
+        p in pair(),
+        t0 in prop_oneof![Just(0.0), 0.0f64..2.0],
+        window in prop_oneof![Just(WINDOW), 0.0f64..1.0],
+        nudge in prop_oneof![Just(0.0), Just(1.0), Just(-1.0)],
+    ) {
+        let exact = Sphere::collision_time(&p.a, &p.b, &(), &(), &p.dr, &p.dv, t0, window);
+        // The horizon at the contact (nudged by one ulp), or the drawn window for misses.
+        let horizon = if exact.is_finite() && exact > 0.0 {
+            exact + nudge * exact * f64::EPSILON
+        } else {
+            window
+        };
+        let time = Sphere::collision_time(&p.a, &p.b, &(), &(), &p.dr, &p.dv, t0, horizon);
+        let screened = Sphere::may_collide(&p.a, &p.b, &(), &(), &p.dr, &p.dv, t0, horizon);
+        prop_assert!(screened || time == f64::INFINITY,
+            "screen rejected a contact at {time} within {horizon}");
+    }
+
+    /// Without growth the screen is selective: it rejects every pair that does not meet
+    /// within twice the horizon (the bound of the `c + 2bT ≤ 0` test), receding pairs
+    /// among them.
+    #[test]
+    fn sphere_screen_rejects_pairs_that_meet_beyond_twice_the_horizon(
+        p in pair(),
+        window in 0.001f64..2.0,
+    ) {
+        let (a, b) = (Sphere::new(p.a.r0), Sphere::new(p.b.r0));
+        let later = Sphere::collision_time(&a, &b, &(), &(), &p.dr, &p.dv, 0.0, 2.001 * window);
+        let screened = Sphere::may_collide(&a, &b, &(), &(), &p.dr, &p.dv, 0.0, window);
+        prop_assert!(!screened || later.is_finite(), "passed a pair that misses 2T");
+        if p.dr.dot(&p.dv) >= 0.0 {
+            prop_assert!(!screened, "passed a receding pair");
+        }
+    }
+
+    /// `stays_in_ball` is the exact complement of an exit within the horizon: `true` only
+    /// if `exit_ball_time` finds no exit by then, and `true` whenever the exit comes 1 %
+    /// later than the horizon for a point 1 % inside (convexity then leaves a margin far
+    /// above the test's 1e-9).
+    #[test]
+    fn staying_in_the_ball_agrees_with_the_exit_time(
+        dir in unit_vector(),
+        depth in 0.0f64..0.99,
+        vdir in unit_vector(),
+        speed in prop_oneof![Just(0.0), 0.0f64..3.0],
+        s in 0.05f64..2.0,
+        g in prop_oneof![Just(0.0), 0.0f64..0.2],
+        horizon in prop_oneof![0.0f64..1.0, 1.0f64..50.0],
+    ) {
+        let q = dir * (depth * s);
+        let v = vdir * speed;
+        let exit = exit_ball_time(q.norm_squared(), q.dot(&v), v.norm_squared(), s, g);
+        let stays = stays_in_ball(&q, &v, s, g, horizon);
+        if stays {
+            prop_assert!(exit.is_none_or(|tau| tau > horizon), "exit at {exit:?} within {horizon}");
+        }
+        if exit.is_none_or(|tau| tau > 1.01 * horizon) {
+            prop_assert!(stays, "exit at {exit:?}, horizon {horizon}: should stay");
+        }
     }
 }

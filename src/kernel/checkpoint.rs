@@ -19,7 +19,7 @@
 use super::{Edmd, EventCounts, KernelConfig, LocalLists, Particle};
 use crate::boundary::Boundary;
 use crate::queue::EventQueue;
-use crate::shape::{Collidable, Vec3};
+use crate::shape::Collidable;
 use crate::spatial::CellGrid;
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
@@ -34,8 +34,7 @@ use std::borrow::Cow;
 pub struct KernelSnapshot<'a, S: Collidable> {
     particles: Cow<'a, [Particle<S>]>,
     counts: Cow<'a, [u32]>,
-    list_centre: Cow<'a, [Vec3]>,
-    list_radius: Cow<'a, [f64]>,
+    list_spheres: Cow<'a, [super::ListSphere]>,
     envelopes: Cow<'a, [S::Envelope]>,
     neighbours: Cow<'a, [super::NeighbourList]>,
     grid: Cow<'a, CellGrid>,
@@ -74,8 +73,7 @@ where
         KernelSnapshot {
             particles: Cow::Borrowed(&self.particles),
             counts: Cow::Borrowed(&self.counts),
-            list_centre: Cow::Borrowed(&self.list_centre),
-            list_radius: Cow::Borrowed(&self.list_radius),
+            list_spheres: Cow::Borrowed(&self.list_spheres),
             envelopes: Cow::Borrowed(&self.envelopes),
             neighbours: Cow::Borrowed(&self.neighbours),
             grid: Cow::Borrowed(&self.grid),
@@ -108,8 +106,7 @@ where
         let n = snapshot.particles.len();
         let lengths = [
             ("counts", snapshot.counts.len()),
-            ("list_centre", snapshot.list_centre.len()),
-            ("list_radius", snapshot.list_radius.len()),
+            ("list_spheres", snapshot.list_spheres.len()),
             ("neighbours", snapshot.neighbours.len()),
             ("ids", snapshot.ids.len()),
         ];
@@ -150,8 +147,7 @@ where
             particles: snapshot.particles.into_owned(),
             counts: snapshot.counts.into_owned(),
             local: LocalLists::new(n),
-            list_centre: snapshot.list_centre.into_owned(),
-            list_radius: snapshot.list_radius.into_owned(),
+            list_spheres: snapshot.list_spheres.into_owned(),
             envelopes: snapshot.envelopes.into_owned(),
             // Recomputed when the next interval begins.
             list_exit: vec![0.0; envelopes],

@@ -71,7 +71,9 @@ pub use stage::{Limits, Progress, Stage, StageProgress, StageReport, StopReason,
 
 use crate::boundary::{Boundary, WallId};
 use crate::queue::EventQueue;
-use crate::shape::{bounding_sphere_wall_impulse, exit_ball_time, Collidable, MassRule, Vec3};
+use crate::shape::{
+    bounding_sphere_wall_impulse, exit_ball_time, stays_in_ball, Collidable, MassRule, Vec3,
+};
 use crate::spatial::{CellGrid, MAX_LEVELS};
 use rand::Rng;
 use rand_distr::StandardNormal;
@@ -217,6 +219,18 @@ pub(crate) type NeighbourList = smallvec::SmallVec<[u32; NEIGHBOURS_INLINE]>;
 /// skin of 0.4 was as fast as any (BENCHMARKS.md, tuning).
 pub const MAX_SKIN: f64 = 0.5;
 
+/// A neighbour-list sphere (see the module docs): the centre and the radius share one
+/// 32-byte record, so the list updates, which test a sphere against some forty candidates,
+/// and the list-exit predictions load one cache line per sphere rather than two.
+#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
+#[repr(C, align(32))]
+pub(crate) struct ListSphere {
+    /// Centre (wrapped into the box).
+    centre: Vec3,
+    /// Radius.
+    radius: f64,
+}
+
 /// Which partners a prediction pass considers.
 #[derive(Clone, Copy)]
 enum Partners {
@@ -236,10 +250,8 @@ pub struct Edmd<S: Collidable, B: Boundary, Q: EventQueue> {
     particles: Vec<Particle<S>>,
     counts: Vec<u32>,
     local: LocalLists,
-    /// Centres of the neighbour-list spheres (wrapped into the box).
-    list_centre: Vec<Vec3>,
-    /// Radii of the neighbour-list spheres.
-    list_radius: Vec<f64>,
+    /// The neighbour-list spheres.
+    list_spheres: Vec<ListSphere>,
     /// Neighbour envelopes ([`Collidable::Envelope`]) of the lists, one per particle when
     /// [`Collidable::ENVELOPES`], else empty.
     envelopes: Vec<S::Envelope>,
@@ -377,8 +389,13 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let mut kernel = Self {
             counts: vec![0; n],
             local: LocalLists::new(n),
-            list_centre: particles.iter().map(|p| p.pos).collect(),
-            list_radius: vec![0.0; n],
+            list_spheres: particles
+                .iter()
+                .map(|p| ListSphere {
+                    centre: p.pos,
+                    radius: 0.0,
+                })
+                .collect(),
             envelopes: if S::ENVELOPES {
                 vec![S::Envelope::default(); n]
             } else {
@@ -418,10 +435,12 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         for i in 0..n {
             let shape = &kernel.particles[i].shape;
             let (r, l) = (shape.bounding_radius(0.0), shape.skin_length(0.0));
-            kernel.list_radius[i] = kernel.list_radius_for(r, l);
+            kernel.list_spheres[i].radius = kernel.list_radius_for(r, l);
             if S::ENVELOPES {
                 let p = &kernel.particles[i];
-                kernel.envelopes[i] = p.shape.envelope(&p.spin, 0.0, kernel.list_radius[i] - r);
+                kernel.envelopes[i] =
+                    p.shape
+                        .envelope(&p.spin, 0.0, kernel.list_spheres[i].radius - r);
             }
         }
         let width = kernel.needed_cell_width(0.0);
@@ -582,9 +601,9 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// Cell width that holds every neighour-list sphere existing now or built up to time `t`.
     fn needed_cell_width(&self, t: f64) -> f64 {
         let current = self
-            .list_radius
+            .list_spheres
             .iter()
-            .fold(0.0_f64, |m, &r| m.max(2.0 * r));
+            .fold(0.0_f64, |m, s| m.max(2.0 * s.radius));
         let r = 0.5 * self.max_diameter(t);
         current.max(2.0 * self.list_radius_for(r, r))
     }
@@ -631,9 +650,9 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         // Levels halve down to the smallest neighbour-list sphere (one level when all are
         // alike).
         let smallest = self
-            .list_radius
+            .list_spheres
             .iter()
-            .fold(f64::INFINITY, |m, &r| m.min(2.0 * r));
+            .fold(f64::INFINITY, |m, s| m.min(2.0 * s.radius));
         let mut widths = vec![width];
         while widths.len() < MAX_LEVELS && widths[widths.len() - 1] * 0.5 >= smallest {
             widths.push(widths[widths.len() - 1] * 0.5);
@@ -654,8 +673,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         }
         let mut visited = vec![false; n];
         permute_in_place(&mut self.counts, &order, &mut visited);
-        permute_in_place(&mut self.list_centre, &order, &mut visited);
-        permute_in_place(&mut self.list_radius, &order, &mut visited);
+        permute_in_place(&mut self.list_spheres, &order, &mut visited);
         if S::ENVELOPES {
             permute_in_place(&mut self.envelopes, &order, &mut visited);
         }
@@ -689,8 +707,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// its diameter.
     #[inline]
     fn home_cell(&self, i: usize) -> u32 {
-        let level = self.grid.level_for(2.0 * self.list_radius[i]);
-        self.grid.cell_at(level, &self.list_centre[i])
+        let level = self.grid.level_for(2.0 * self.list_spheres[i].radius);
+        self.grid.cell_at(level, &self.list_spheres[i].centre)
     }
 
     /// Particles whose neighbour-list spheres may overlap `i`'s (a superset), into `out`.
@@ -698,9 +716,11 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         out.clear();
         for level in 0..self.grid.levels() {
             // Spheres registered at `level` have radii ≤ half its cell width.
-            let reach = self.list_radius[i] + 0.5 * self.grid.level_width(level);
+            let reach = self.list_spheres[i].radius + 0.5 * self.grid.level_width(level);
             self.grid
-                .for_each_within(level, &self.list_centre[i], reach, |j| out.push(j as u32));
+                .for_each_within(level, &self.list_spheres[i].centre, reach, |j| {
+                    out.push(j as u32)
+                });
         }
     }
 
@@ -708,9 +728,9 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// (shapes with [`Collidable::ENVELOPES`]).
     #[inline]
     fn lists_overlap(&self, i: usize, j: usize) -> bool {
-        let mut d = self.list_centre[i] - self.list_centre[j];
+        let mut d = self.list_spheres[i].centre - self.list_spheres[j].centre;
         self.boundary.minimum_image(&mut d);
-        let reach = self.list_radius[i] + self.list_radius[j];
+        let reach = self.list_spheres[i].radius + self.list_spheres[j].radius;
         d.norm_squared() < reach * reach
             && (!S::ENVELOPES || S::envelopes_overlap(&self.envelopes[i], &self.envelopes[j], &d))
     }
@@ -753,13 +773,15 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.boundary.wrap(&mut wrapped);
         self.particles[i].pos += wrapped - centre;
         let old = std::mem::take(&mut self.neighbours[i]);
-        self.list_centre[i] = wrapped;
+        self.list_spheres[i].centre = wrapped;
         let shape = &self.particles[i].shape;
         let (r, l) = (shape.bounding_radius(t), shape.skin_length(t));
-        self.list_radius[i] = self.list_radius_for(r, l);
+        self.list_spheres[i].radius = self.list_radius_for(r, l);
         if S::ENVELOPES {
             let p = &self.particles[i];
-            self.envelopes[i] = p.shape.envelope(&p.spin_at(t), t, self.list_radius[i] - r);
+            self.envelopes[i] = p
+                .shape
+                .envelope(&p.spin_at(t), t, self.list_spheres[i].radius - r);
         }
         self.grid.remove(i);
         let cell = self.home_cell(i);
@@ -767,7 +789,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let mut candidates = std::mem::take(&mut self.scratch);
         self.list_candidates(i, &mut candidates);
         for &j in &candidates {
-            prefetch(&self.list_centre[j as usize]);
+            prefetch(&self.list_spheres[j as usize]);
         }
         let mut new = NeighbourList::new();
         if self.tracks_images() {
@@ -852,15 +874,22 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// Predicts collisions of particle `i` with its neighbours into a fresh local list, which
     /// replaces `i`'s (every caller predicts `i` afresh; [`Self::predict_own`] adds to it).
     ///
-    /// The hot loop of the kernel (tens of predictions per collision), in two passes. The
-    /// first computes a contact time for every neighbour ([`Collidable::collision_time`],
-    /// `+∞` for none) and appends it to a buffer whose end moves past it only if it is
-    /// finite: for spheres nothing in this pass branches on a pair's outcome, where acting on
-    /// each prediction at once mispredicted about one branch per neighbour (BENCHMARKS.md,
-    /// design decisions). The second sorts the few contacts found (earliest first, the first
-    /// neighbour on ties) and moves the earliest [`LOCAL_CAPACITY`] into the list — the
-    /// events that pushing every prediction in neighbour order would keep, up to the order of
-    /// times that round to the same event time — reading a partner's counter only for those.
+    /// The hot loop of the kernel (tens of predictions per collision), in three passes:
+    /// 1. a screen ([`Collidable::may_collide`]) marks the neighbours that may meet `i`
+    ///    within the horizon, without the square root and division of a contact time: in
+    ///    the φ = 0.5 fluid 84 % of the neighbours recede, miss or meet after the barrier
+    ///    (BENCHMARKS.md, session 11);
+    /// 2. contact times ([`Collidable::collision_time`], `+∞` for none) for those only;
+    ///
+    ///    both passes append to a buffer whose end moves past an entry only if it is kept:
+    ///    for spheres nothing in them branches on a pair's outcome, where acting on each
+    ///    prediction at once mispredicted about one branch per neighbour (BENCHMARKS.md,
+    ///    design decisions);
+    /// 3. the few contacts found are sorted (earliest first, the first neighbour on ties) and
+    ///    the earliest [`LOCAL_CAPACITY`] go into the list — the events that pushing every
+    ///    prediction in neighbour order would keep, up to the order of times that round to
+    ///    the same event time — reading a partner's counter only for those.
+    ///
     /// The caller has asked for the partners' states first ([`Self::prefetch_partners`]).
     #[inline]
     fn predict_pairs(&mut self, i: usize, partners: Partners) {
@@ -886,27 +915,41 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         if found.len() < neighbours.len() {
             found.resize(neighbours.len(), (f64::INFINITY, 0));
         }
+        // The relative position, velocity and rotation of partner `entry`, and the horizon
+        // of the pair.
+        let pair = |entry: u32| {
+            let j = self.partner_index(entry);
+            let pj = &self.particles[j];
+            let dr = self.separation(i, &pos_i, j, &pj.position_at(t), entry);
+            let horizon = if S::ENVELOPES {
+                max_tau.min((exit_i.min(self.list_exit[j]) - t).max(0.0))
+            } else {
+                max_tau
+            };
+            (pj, dr, vel_i - pj.vel, pj.spin_at(t), horizon)
+        };
+        // Screen: the neighbours that may meet `i` within the horizon.
         let mut count = 0;
         for (k, &entry) in neighbours.iter().enumerate() {
             let j = self.partner_index(entry);
             // A particle's own images are partners like any other.
             let skip = (j == except || j < first) && !(self.tracks_images() && j == i);
-            let tau = if skip {
-                f64::INFINITY
-            } else {
-                let pj = &self.particles[j];
-                let dr = self.separation(i, &pos_i, j, &pj.position_at(t), entry);
-                let dv = vel_i - pj.vel;
-                let spin_j = pj.spin_at(t);
-                let horizon = if S::ENVELOPES {
-                    max_tau.min((exit_i.min(self.list_exit[j]) - t).max(0.0))
-                } else {
-                    max_tau
-                };
-                S::collision_time(&shape_i, &pj.shape, &spin_i, &spin_j, &dr, &dv, t, horizon)
-            };
+            let (pj, dr, dv, spin_j, horizon) = pair(entry);
+            let pass =
+                !skip & S::may_collide(&shape_i, &pj.shape, &spin_i, &spin_j, &dr, &dv, t, horizon);
             // Kept by moving the end past it, not by a branch.
-            found[count] = (tau, k as u32);
+            found[count].1 = k as u32;
+            count += usize::from(pass);
+        }
+        // Times of those that passed, keeping the ones that meet.
+        let screened = count;
+        count = 0;
+        for m in 0..screened {
+            let k = found[m].1;
+            let (pj, dr, dv, spin_j, horizon) = pair(neighbours[k as usize]);
+            let tau =
+                S::collision_time(&shape_i, &pj.shape, &spin_i, &spin_j, &dr, &dv, t, horizon);
+            found[count] = (tau, k);
             count += usize::from(tau < f64::INFINITY);
         }
         let found_now = &mut found[..count];
@@ -942,8 +985,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// [`Self::predict_afresh`].
     #[inline]
     fn prefetch_partners(&self, i: usize) {
-        prefetch(&self.list_centre[i]);
-        prefetch(&self.list_radius[i]);
+        prefetch(&self.list_spheres[i]);
         for &entry in self.neighbours[i].iter() {
             prefetch(&self.particles[self.partner_index(entry)]);
         }
@@ -974,11 +1016,16 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             // Refreshed before every prediction pass of `i` ([`Self::refresh_list_exit`]).
             Some(self.list_exit[i] - t).filter(|tau| tau.is_finite())
         } else {
-            let mut q = pos - self.list_centre[i];
+            let mut q = pos - self.list_spheres[i].centre;
             self.boundary.minimum_image(&mut q);
-            let s = self.list_radius[i] - p.shape.bounding_radius(t);
+            let s = self.list_spheres[i].radius - p.shape.bounding_radius(t);
             let g = p.shape.bounding_growth_rate();
-            exit_ball_time(q.norm_squared(), q.dot(&p.vel), p.vel.norm_squared(), s, g)
+            // Most particles stay inside their list sphere until the barrier.
+            if stays_in_ball(&q, &p.vel, s, g, max_tau) {
+                None
+            } else {
+                exit_ball_time(q.norm_squared(), q.dot(&p.vel), p.vel.norm_squared(), s, g)
+            }
         };
         if let Some(tau) = exit.filter(|&tau| tau <= max_tau) {
             self.local
@@ -1002,7 +1049,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     fn list_exit_time(&self, i: usize) -> f64 {
         let t = self.time;
         let p = &self.particles[i];
-        let mut q = p.position_at(t) - self.list_centre[i];
+        let mut q = p.position_at(t) - self.list_spheres[i].centre;
         self.boundary.minimum_image(&mut q);
         let spin = p.spin_at(t);
         p.shape
@@ -1231,12 +1278,13 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     #[inline(always)]
     fn separation(&self, i: usize, pos_i: &Vec3, j: usize, pos_j: &Vec3, entry: u32) -> Vec3 {
         if self.tracks_images() {
-            let mut offset_i = pos_i - self.list_centre[i];
-            let mut offset_j = pos_j - self.list_centre[j];
+            let mut offset_i = pos_i - self.list_spheres[i].centre;
+            let mut offset_j = pos_j - self.list_spheres[j].centre;
             self.boundary.minimum_image(&mut offset_i);
             self.boundary.minimum_image(&mut offset_j);
             let image = images::translation(images::shift(entry), &self.period());
-            return self.list_centre[i] - self.list_centre[j] - image + (offset_i - offset_j);
+            return self.list_spheres[i].centre - self.list_spheres[j].centre - image
+                + (offset_i - offset_j);
         }
         let mut dr = pos_i - pos_j;
         self.boundary.minimum_image(&mut dr);
@@ -1279,8 +1327,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// overlaps `i`'s, and the mirrored entries to `j`'s list; for `j == i`, `i`'s own
     /// images, once each.
     fn link_images(&mut self, i: usize, j: usize, list_i: &mut NeighbourList) {
-        let d = self.list_centre[i] - self.list_centre[j];
-        let reach = self.list_radius[i] + self.list_radius[j];
+        let d = self.list_spheres[i].centre - self.list_spheres[j].centre;
+        let reach = self.list_spheres[i].radius + self.list_spheres[j].radius;
         let period = self.period();
         let envelopes = &self.envelopes;
         let list_j = &mut self.neighbours[j];
@@ -1462,6 +1510,13 @@ mod tests {
         type P = super::Particle<crate::shape::Sphere>;
         assert_eq!(std::mem::size_of::<P>(), 64);
         assert_eq!(std::mem::align_of::<P>(), 64);
+    }
+
+    /// A neighbour-list sphere is half an aligned cache line: centre and radius load as one.
+    #[test]
+    fn a_list_sphere_is_half_a_cache_line() {
+        assert_eq!(std::mem::size_of::<super::ListSphere>(), 32);
+        assert_eq!(std::mem::align_of::<super::ListSphere>(), 32);
     }
 
     /// The state is kept at kernel time 0: an event's velocity change moves the stored line
