@@ -31,6 +31,7 @@ pub const MAGIC: &[u8] = b"densepack-checkpoint\n";
 /// kernel numbers its particles along a Morton curve of the cells, so a version-3 snapshot
 /// would resume in a numbering the uninterrupted run never had.
 /// 5: particles store their state at kernel time 0 and no update time.
+/// 6: a neighbour-list sphere's centre and radius are one record.
 pub const CHECKPOINT_VERSION: u32 = 6;
 
 /// Everything of a checkpoint but the kernel.

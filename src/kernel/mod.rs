@@ -220,7 +220,7 @@ pub(crate) type NeighbourList = smallvec::SmallVec<[u32; NEIGHBOURS_INLINE]>;
 pub const MAX_SKIN: f64 = 0.5;
 
 /// A neighbour-list sphere (see the module docs): the centre and the radius share one
-/// 32-byte record, so the list updates, which test a sphere against some forty candidates,
+/// 32-byte record, so the list updates, which test a sphere against some fifty candidates,
 /// and the list-exit predictions load one cache line per sphere rather than two.
 #[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
 #[repr(C, align(32))]
