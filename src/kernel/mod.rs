@@ -875,9 +875,10 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// replaces `i`'s (every caller predicts `i` afresh; [`Self::predict_own`] adds to it).
     ///
     /// The hot loop of the kernel (tens of predictions per collision), in three passes:
-    /// 1. a screen ([`Collidable::may_collide`]) marks the neighbours that may meet `i`
-    ///    within the horizon, without the square root and division of a contact time: in
-    ///    the φ = 0.5 fluid 84 % of the neighbours recede, miss or meet after the barrier
+    /// 1. a screen ([`Collidable::may_collide`], for shapes with
+    ///    [`Collidable::SCREENS_PAIRS`]) marks the neighbours that may meet `i` within the
+    ///    horizon, without the square root and division of a contact time: in the φ = 0.5
+    ///    fluid 84 % of the neighbours recede, miss or meet after the barrier
     ///    (BENCHMARKS.md, session 11);
     /// 2. contact times ([`Collidable::collision_time`], `+∞` for none) for those only;
     ///
@@ -934,9 +935,11 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             let j = self.partner_index(entry);
             // A particle's own images are partners like any other.
             let skip = (j == except || j < first) && !(self.tracks_images() && j == i);
-            let (pj, dr, dv, spin_j, horizon) = pair(entry);
-            let pass =
-                !skip & S::may_collide(&shape_i, &pj.shape, &spin_i, &spin_j, &dr, &dv, t, horizon);
+            let may_meet = !S::SCREENS_PAIRS || {
+                let (pj, dr, dv, spin_j, horizon) = pair(entry);
+                S::may_collide(&shape_i, &pj.shape, &spin_i, &spin_j, &dr, &dv, t, horizon)
+            };
+            let pass = !skip & may_meet;
             // Kept by moving the end past it, not by a branch.
             found[count].1 = k as u32;
             count += usize::from(pass);

@@ -209,11 +209,16 @@ pub trait Collidable: Clone + Send + Sync + 'static {
         t: f64,
         max_tau: f64,
     ) -> f64;
+    /// Whether the shape screens pairs ([`Collidable::may_collide`] is more than the
+    /// default): without, the kernel skips the screen and its pass, and a pair's relative
+    /// state (for rotating shapes not cheap) is computed once.
+    const SCREENS_PAIRS: bool = false;
     /// Whether `a` and `b` may touch within `[0, max_tau]` (the arguments of
     /// [`Self::collision_time`]): a cheap screen that the kernel's prediction pass runs on
     /// every neighbour, asking [`Self::collision_time`] only for those that pass. It may
     /// pass a pair that then does not meet, but must never reject one that
-    /// [`Self::collision_time`] gives a time. The default passes every pair.
+    /// [`Self::collision_time`] gives a time. The default passes every pair (and is not
+    /// called unless [`Collidable::SCREENS_PAIRS`]).
     #[allow(clippy::too_many_arguments)]
     #[inline]
     fn may_collide(

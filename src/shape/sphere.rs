@@ -188,6 +188,8 @@ impl Collidable for Sphere {
         sphere_contact_time(a.radius(t) + b.radius(t), a.g + b.g, dr, dv, max_tau)
     }
 
+    const SCREENS_PAIRS: bool = true;
+
     #[inline]
     fn may_collide(
         a: &Self,
