@@ -44,6 +44,20 @@ pub fn predict_sphere_sphere(
     (tau < f64::INFINITY).then_some(tau)
 }
 
+/// Coefficients `(a, b, c)` of the gap function `f(τ) = a τ² + 2 b τ + c` of two growing
+/// spheres (paper 001, Eq. 22): `a = dv² − G²`, `b = dr·dv − σ G`, `c = dr² − σ²`, with `σ`
+/// the sum of the radii and `G` of the growth rates. One evaluation for
+/// [`sphere_contact_time`] and [`sphere_contact_possible`], so that the screen decides on
+/// the very numbers the time is computed from.
+#[inline(always)]
+fn gap_coefficients(sigma: f64, growth: f64, dr: &Vec3, dv: &Vec3) -> (f64, f64, f64) {
+    (
+        dv.norm_squared() - growth * growth,
+        dr.dot(dv) - sigma * growth,
+        dr.norm_squared() - sigma * sigma,
+    )
+}
+
 /// [`predict_sphere_sphere`] as a time, `+∞` for no contact within `[0, max_tau]`.
 ///
 /// For a pair apart (`c > 0`, the common case) both roots in use are the same number
@@ -57,9 +71,7 @@ pub fn predict_sphere_sphere(
 /// of `b`, so one division serves both.
 #[inline]
 pub fn sphere_contact_time(sigma: f64, growth: f64, dr: &Vec3, dv: &Vec3, max_tau: f64) -> f64 {
-    let b = dr.dot(dv) - sigma * growth;
-    let a = dv.norm_squared() - growth * growth;
-    let c = dr.norm_squared() - sigma * sigma;
+    let (a, b, c) = gap_coefficients(sigma, growth, dr, dv);
     if c <= 0.0 {
         // Touching or overlapping by rounding: rare, handled by the general rule.
         return first_falling_root(a, b, c)
@@ -98,9 +110,10 @@ pub fn sphere_contact_time(sigma: f64, growth: f64, dr: &Vec3, dv: &Vec3, max_ta
 ///   `x² ≤ T² (b² − ac)`; a receding pair that growth brings together (`a < 0`) meets at
 ///   `τ = (b + √(b² − ac)) / (−a)`, within it iff `y = −a T − b ≥ 0` and `b² − ac ≤ y²`.
 ///
-/// The horizon is widened by a relative `1e-9`, far above the rounding of these products,
-/// so that rounding never rejects a pair whose computed time lies inside it. Touching pairs
-/// (`c ≤ 0`) always pass.
+/// `a`, `b`, `c` and `b² − ac` are the same numbers the time is computed from
+/// ([`gap_coefficients`]); the horizon is widened by a relative `1e-9`, far above the
+/// rounding of the products, so that rounding never rejects a pair whose computed time lies
+/// inside it. Touching pairs (`c ≤ 0`) always pass.
 #[inline]
 pub fn sphere_contact_possible(
     sigma: f64,
@@ -109,9 +122,7 @@ pub fn sphere_contact_possible(
     dv: &Vec3,
     max_tau: f64,
 ) -> bool {
-    let b = dr.dot(dv) - sigma * growth;
-    let a = dv.norm_squared() - growth * growth;
-    let c = dr.norm_squared() - sigma * sigma;
+    let (a, b, c) = gap_coefficients(sigma, growth, dr, dv);
     let disc = b * b - a * c;
     let horizon = max_tau * (1.0 + 1e-9);
     let approaching = (b < 0.0) & (disc >= 0.0);
