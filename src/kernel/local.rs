@@ -186,10 +186,10 @@ impl LocalLists {
         earliest_of(&self.events[i])
     }
 
-    /// Asks the memory system for the events of list `i` ([`super::prefetch`]).
+    /// Asks the memory system for the events of list `i` ([`crate::prefetch`]).
     #[inline]
     pub(super) fn prefetch(&self, i: usize) {
-        super::prefetch(&self.events[i]);
+        crate::prefetch(&self.events[i]);
     }
 
     /// Removes the event at `index` of list `i`.

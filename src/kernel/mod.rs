@@ -70,6 +70,7 @@ use local::{EventKind, LocalEvent, LocalList, LocalLists, LOCAL_CAPACITY};
 pub use stage::{Limits, Progress, Stage, StageProgress, StageReport, StopReason, Until};
 
 use crate::boundary::{Boundary, WallId};
+use crate::prefetch;
 use crate::queue::EventQueue;
 use crate::shape::{
     bounding_sphere_wall_impulse, exit_ball_time, stays_in_ball, Collidable, MassRule, Vec3,
@@ -1099,7 +1100,6 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// the kernel time is that of the last processed event, and `budget.stopped` says why,
     /// or is `None` when only the interval's own event allowance ran out).
     fn run_interval(&mut self, budget: &mut EventBudget) -> bool {
-        let mut hinted: [Option<usize>; 2] = [None; 2];
         loop {
             let Some((i, t)) = self.queue.peek() else {
                 return true;
@@ -1108,24 +1108,28 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 return true;
             }
             // Data of the next events loads while this one is processed (at 10⁵ particles
-            // these loads wait on main memory; measured: BENCHMARKS.md, design decisions).
-            // First the next partners of the particles hinted at one event ago, whose local
-            // lists have arrived by now: their counters (the validity check), states and
-            // neighbour lists.
-            for k in hinted.into_iter().flatten() {
+            // these loads wait on main memory; measured: BENCHMARKS.md, design decisions and
+            // session 12), in a pipeline two events deep. The likeliest next particle, whose
+            // local and neighbour lists were requested one event ago: the states of its
+            // partners, and its next partner's counter (the validity check), state,
+            // neighbour list, local list (rewritten, then read back by the collision) and
+            // queue entry. The candidates for the event after it: their local lists, states
+            // and neighbour lists.
+            let upcoming = self.queue.upcoming();
+            if let Some(k) = upcoming[0] {
+                self.prefetch_partners(k);
                 if let Some((_, e)) = self.local.earliest(k) {
                     if let EventKind::Collision { partner, .. } = e.kind() {
                         let j = self.partner_index(partner);
                         prefetch(&self.counts[j]);
                         prefetch(&self.particles[j]);
                         prefetch(&self.neighbours[j]);
+                        self.local.prefetch(j);
+                        self.queue.prefetch(j);
                     }
                 }
             }
-            // Then the particles likely to come next: their local lists, states and
-            // neighbour lists.
-            hinted = self.queue.upcoming();
-            for k in hinted.into_iter().flatten() {
+            for &k in upcoming.iter().flatten() {
                 self.local.prefetch(k);
                 prefetch(&self.particles[k]);
                 prefetch(&self.neighbours[k]);
@@ -1358,37 +1362,6 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.reschedule(i);
         self.counters.neighbour_list_updates += 1;
     }
-}
-
-/// Hints the processor to load the cache lines of `value` (a no-op where there is no
-/// prefetch instruction). Written here: no maintained crate offers a portable prefetch.
-///
-/// One hint per 64 bytes from the start, plus one for the last byte unless `T` is aligned
-/// to whole lines: a value that does not start on a line boundary touches one line more
-/// than its size suggests. The count is a compile-time constant, so the hints unroll
-/// without a branch (counting the lines the address actually touches costs a
-/// data-dependent loop per partner).
-#[inline(always)]
-fn prefetch<T>(value: &T) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        let start = value as *const T as *const i8;
-        let size = std::mem::size_of::<T>();
-        let mut offset = 0;
-        while offset < size {
-            // SAFETY: prefetching never faults, and the address lies inside `value`.
-            unsafe { _mm_prefetch::<_MM_HINT_T0>(start.wrapping_add(offset)) };
-            offset += 64;
-        }
-        if !std::mem::align_of::<T>().is_multiple_of(64) {
-            let last = start.wrapping_add(size.saturating_sub(1));
-            // SAFETY: as above.
-            unsafe { _mm_prefetch::<_MM_HINT_T0>(last) };
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = value;
 }
 
 /// Reorders `v` so that `v_new[i] = v_old[order[i]]`, in place by following the cycles of

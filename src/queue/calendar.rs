@@ -54,7 +54,8 @@
 //! case (all times clustered in one bucket) the queue degrades to the `O(log n)` of the
 //! binary heap. Memory is `O(capacity + nb)`.
 
-use super::EventQueue;
+use super::{EventQueue, UPCOMING};
+use crate::prefetch;
 use std::cmp::Ordering;
 
 /// A front larger than this triggers a rebuild (see the module documentation).
@@ -67,6 +68,9 @@ const ENTRIES_PER_BUCKET: usize = 4;
 
 /// Upper bound on the number of buckets (and with it on the memory a `reset` can allocate).
 const MAX_BUCKETS: usize = 1 << 24;
+
+/// Buckets after the current one that `settle` looks through for the read-ahead cursor.
+const READ_AHEAD_SCAN: usize = 8;
 
 /// End of a bucket list (keys are below `u32::MAX`).
 const NIL: u32 = u32::MAX;
@@ -144,6 +148,15 @@ pub struct CalendarQueue {
     /// Schedules, cancels and pops since the last rebuild or reset; a rebuild forced by an
     /// oversized front waits until `ops >= len`.
     ops: usize,
+    /// Read-ahead cursor into the list of the next non-empty bucket after `cur` (a hint, never
+    /// relied on): each `peek` reads the record it points to, which the previous `peek` asked
+    /// the memory system for, steps to that key's successor and prefetches its record. The
+    /// bucket's list chain is thus loaded one link per event while the current bucket drains,
+    /// instead of as a chain of dependent cache misses when `settle` takes the bucket (at 10⁵
+    /// keys that chain took 11 % of the run; BENCHMARKS.md, session 12). Keys unlinked or
+    /// moved meanwhile keep valid (stale) links, so the cursor may wander into another list
+    /// or end early; it never affects results.
+    read_ahead: u32,
     /// Scratch buffer for the keys moved by a rebuild (kept to reuse its allocation).
     scratch_keys: Vec<u32>,
     /// Scratch buffer for the times examined by a rebuild (kept to reuse its allocation).
@@ -400,6 +413,23 @@ impl CalendarQueue {
             for i in (0..self.front.len() / 2).rev() {
                 self.sift_down(i);
             }
+            self.read_ahead = self.heads[b + 1..]
+                .iter()
+                .take(READ_AHEAD_SCAN)
+                .copied()
+                .find(|&k| k != NIL)
+                .unwrap_or(NIL);
+        }
+    }
+
+    /// Moves the read-ahead cursor one key along its list (see [`Self::read_ahead`]).
+    #[inline]
+    fn step_read_ahead(&mut self) {
+        if let Some(record) = self.keys.get(self.read_ahead as usize) {
+            self.read_ahead = record.link[1];
+            if let Some(next) = self.keys.get(self.read_ahead as usize) {
+                prefetch(next);
+            }
         }
     }
 
@@ -441,6 +471,7 @@ impl EventQueue for CalendarQueue {
             inv_width: 1.0,
             len: 0,
             ops: 0,
+            read_ahead: NIL,
             scratch_keys: Vec::new(),
             scratch_times: Vec::new(),
         }
@@ -503,15 +534,23 @@ impl EventQueue for CalendarQueue {
 
     fn peek(&mut self) -> Option<(usize, f64)> {
         self.settle();
+        self.step_read_ahead();
         self.front
             .first()
             .map(|&k| (k as usize, self.keys[k as usize].time))
     }
 
-    /// The root's children in the front heap: after the root, one of them is the earliest
-    /// unless the kernel reschedules the root's particle (or its partner) before them.
-    fn upcoming(&self) -> [Option<usize>; 2] {
-        [1, 2].map(|i| self.front.get(i).map(|&k| k as usize))
+    /// The root's children, the earlier first, then their children (the earlier child's
+    /// first). After the root, the earlier child is the earliest unless the kernel schedules
+    /// an entry before it while it processes the root's event; its children are the
+    /// candidates for the event after.
+    fn upcoming(&self) -> [Option<usize>; UPCOMING] {
+        let (a, b) = match (self.front.get(1), self.front.get(2)) {
+            (Some(&x), Some(&y)) if self.before(y, x) => (2, 1),
+            _ => (1, 2),
+        };
+        [a, b, 2 * a + 1, 2 * a + 2, 2 * b + 1, 2 * b + 2]
+            .map(|i| self.front.get(i).map(|&k| k as usize))
     }
 
     fn pop(&mut self) -> Option<(usize, f64)> {
@@ -522,6 +561,13 @@ impl EventQueue for CalendarQueue {
         self.len -= 1;
         self.ops += 1;
         Some((k as usize, self.keys[k as usize].time))
+    }
+
+    /// The key's record: a schedule reads its place, and its time and links move with it.
+    fn prefetch(&self, key: usize) {
+        if let Some(record) = self.keys.get(key) {
+            prefetch(record);
+        }
     }
 
     fn len(&self) -> usize {

@@ -19,6 +19,9 @@ mod heap;
 pub use calendar::CalendarQueue;
 pub use heap::HeapQueue;
 
+/// Length of [`EventQueue::upcoming`]'s hint.
+pub const UPCOMING: usize = 6;
+
 /// A priority queue of at most one pending time per key, keys in `0..capacity`.
 ///
 /// Contract every implementation must honour (checked by the conformance tests against a
@@ -49,12 +52,16 @@ pub trait EventQueue {
     fn peek(&mut self) -> Option<(usize, f64)>;
     /// Removes and returns the entry with the smallest `(time, key)`, if any.
     fn pop(&mut self) -> Option<(usize, f64)>;
-    /// Up to two keys likely to be peeked after the current earliest one: a hint (the
-    /// kernel asks the memory system for their data while it processes the current event),
-    /// with no guarantee of order or presence. None by default.
-    fn upcoming(&self) -> [Option<usize>; 2] {
-        [None; 2]
+    /// Keys likely to be peeked soon after the current earliest one, the likeliest next first
+    /// and the candidates for the event after that in the other places: a hint (the kernel
+    /// asks the memory system for their data while it processes the current event), with no
+    /// guarantee of order or presence. None by default.
+    fn upcoming(&self) -> [Option<usize>; UPCOMING] {
+        [None; UPCOMING]
     }
+    /// Asks the memory system for what the queue keeps of `key`, which the caller is about to
+    /// `schedule` or `cancel` (a hint; a no-op by default).
+    fn prefetch(&self, _key: usize) {}
     /// Number of entries.
     fn len(&self) -> usize;
     /// Whether the queue holds no entry.
