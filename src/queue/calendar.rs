@@ -660,6 +660,47 @@ mod tests {
         }
     }
 
+    /// `upcoming` names the next minimum first: after the root is popped, the next peek
+    /// returns the key it named (whenever it named one).
+    #[test]
+    fn upcoming_names_the_next_earliest_first() {
+        let n = 4096;
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(11);
+        let mut q = CalendarQueue::with_capacity(n);
+        q.reset(0.0, 8.0, n);
+        for k in 0..n {
+            q.schedule(k, -rng.gen::<f64>().ln());
+        }
+        let mut named = 0;
+        for _ in 0..50_000 {
+            let next = q.peek().and(q.upcoming()[0]);
+            let (k, t) = q.pop().unwrap();
+            if let Some(expected) = next {
+                assert_eq!(q.peek().map(|e| e.0), Some(expected));
+                named += 1;
+            }
+            q.schedule(k, t - rng.gen::<f64>().ln());
+        }
+        assert!(named > 25_000, "named the next key only {named} times");
+    }
+
+    /// The read-ahead cursor walks the list of the next non-empty bucket, one key per peek.
+    #[test]
+    fn read_ahead_walks_the_next_bucket() {
+        let mut q = CalendarQueue::with_capacity(8);
+        q.reset(0.0, 16.0, 16); // 4 buckets of width 4
+        for (k, t) in [(0, 1.0), (1, 5.0), (2, 5.5), (3, 6.0), (4, 9.0), (5, 9.5)] {
+            q.schedule(k, t);
+        }
+        assert_eq!(q.pop(), Some((0, 1.0)));
+        // Taking bucket 1 points the cursor at the head of bucket 2 (key 5, inserted last);
+        // the peek steps it to key 4, the next one to the end of the list.
+        assert_eq!(q.peek(), Some((1, 5.0)));
+        assert_eq!(q.read_ahead, 4);
+        assert_eq!(q.peek(), Some((1, 5.0)));
+        assert_eq!(q.read_ahead, NIL);
+    }
+
     /// A window far too wide crowds the front; the queue rebuilds itself a fitting calendar.
     #[test]
     fn bad_window_is_repaired() {
