@@ -544,6 +544,7 @@ impl EventQueue for CalendarQueue {
     /// first). After the root, the earlier child is the earliest unless the kernel schedules
     /// an entry before it while it processes the root's event; its children are the
     /// candidates for the event after.
+    #[inline]
     fn upcoming(&self) -> [Option<usize>; UPCOMING] {
         let (a, b) = match (self.front.get(1), self.front.get(2)) {
             (Some(&x), Some(&y)) if self.before(y, x) => (2, 1),
