@@ -20,7 +20,7 @@ pub use calendar::CalendarQueue;
 pub use heap::HeapQueue;
 
 /// Length of [`EventQueue::upcoming`]'s hint.
-pub const UPCOMING: usize = 6;
+pub const UPCOMING: usize = 4;
 
 /// A priority queue of at most one pending time per key, keys in `0..capacity`.
 ///
