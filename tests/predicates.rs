@@ -3,7 +3,7 @@
 //! against a brute-force march of the gap, its symmetry and its translation invariance.
 
 use densepack::shape::{
-    exit_ball_time, first_falling_root, stays_in_ball, Collidable, Sphere, Vec3,
+    exit_ball_time, first_falling_root, lanes3, stays_in_ball, Collidable, Lanes, Sphere, Vec3,
 };
 use num_bigint::BigInt;
 use num_rational::BigRational;
@@ -140,7 +140,29 @@ fn pair() -> impl Strategy<Value = Pair> {
         })
 }
 
+/// The kernel's screen of the pairs `(a, b)` in its two lanes, each lane `(b, dr, dv)` with
+/// its own horizon.
+fn screen(a: &Sphere, lanes: [(&Sphere, &Vec3, &Vec3); 2], t: f64, horizon: [f64; 2]) -> [bool; 2] {
+    let [(b0, dr0, dv0), (b1, dr1, dv1)] = lanes;
+    Sphere::may_collide(
+        a,
+        [b0, b1],
+        &(),
+        [&(), &()],
+        &lanes3(dr0, dr1),
+        &lanes3(dv0, dv1),
+        t,
+        Lanes::new(horizon),
+    )
+}
+
 impl Pair {
+    /// The separation that keeps this pair's distance in units of the sum of the radii
+    /// when sphere `a` replaces its first sphere (so the pair stays apart).
+    fn separation_with(&self, a: &Sphere) -> Vec3 {
+        self.dr * ((a.r0 + self.b.r0) / (self.a.r0 + self.b.r0))
+    }
+
     fn gap(&self, tau: f64) -> f64 {
         let sigma = self.a.r0 + self.b.r0 + (self.a.g + self.b.g) * tau;
         (self.dr + self.dv * tau).norm() - sigma
@@ -294,28 +316,40 @@ proptest! {
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(4000))]
 
-    /// The kernel's screen (`Collidable::may_collide`) never rejects a pair that
-    /// `collision_time` gives a time, with and without growth, also with the horizon at the
-    /// contact time itself or one rounding step either side of it (where the screen's
-    /// products and the time's division round differently).
+    /// The kernel's screen (`Collidable::may_collide`, two pairs per call) never rejects a
+    /// pair that `collision_time` gives a time, with and without growth, also with the
+    /// horizon at the contact time itself or one rounding step either side of it (where the
+    /// screen's products and the time's division round differently); each lane answers for
+    /// its own pair, whatever the other holds.
     #[test]
     fn sphere_screen_never_rejects_a_contact(
         p in pair(),
+        q in pair(),
         t0 in prop_oneof![Just(0.0), 0.0f64..2.0],
         window in prop_oneof![Just(WINDOW), 0.0f64..1.0],
         nudge in prop_oneof![Just(0.0), Just(1.0), Just(-1.0)],
     ) {
-        let exact = Sphere::collision_time(&p.a, &p.b, &(), &(), &p.dr, &p.dv, t0, window);
-        // The horizon at the contact (nudged by one ulp), or the drawn window for misses.
-        let horizon = if exact.is_finite() && exact > 0.0 {
-            exact + nudge * exact * f64::EPSILON
-        } else {
-            window
+        // Both lanes share the first sphere, as the kernel's lanes share particle `i`.
+        let dr_q = q.separation_with(&p.a);
+        let lanes = [(&p.b, &p.dr, &p.dv), (&q.b, &dr_q, &q.dv)];
+        let time = |(b, dr, dv): (&Sphere, &Vec3, &Vec3), horizon: f64| {
+            Sphere::collision_time(&p.a, b, &(), &(), dr, dv, t0, horizon)
         };
-        let time = Sphere::collision_time(&p.a, &p.b, &(), &(), &p.dr, &p.dv, t0, horizon);
-        let screened = Sphere::may_collide(&p.a, &p.b, &(), &(), &p.dr, &p.dv, t0, horizon);
-        prop_assert!(screened || time == f64::INFINITY,
-            "screen rejected a contact at {time} within {horizon}");
+        // The horizon at the contact (nudged by one ulp), or the drawn window for misses.
+        let horizon = lanes.map(|lane| {
+            let exact = time(lane, window);
+            if exact.is_finite() && exact > 0.0 {
+                exact + nudge * exact * f64::EPSILON
+            } else {
+                window
+            }
+        });
+        let screened = screen(&p.a, lanes, t0, horizon);
+        for k in 0..2 {
+            let time = time(lanes[k], horizon[k]);
+            prop_assert!(screened[k] || time == f64::INFINITY,
+                "lane {k}: screen rejected a contact at {time} within {}", horizon[k]);
+        }
     }
 
     /// Without growth the screen is selective: it rejects every pair that does not meet
@@ -324,14 +358,19 @@ proptest! {
     #[test]
     fn sphere_screen_rejects_pairs_that_meet_beyond_twice_the_horizon(
         p in pair(),
-        window in 0.001f64..2.0,
+        q in pair(),
+        window in [0.001f64..2.0, 0.001f64..2.0],
     ) {
-        let (a, b) = (Sphere::new(p.a.r0), Sphere::new(p.b.r0));
-        let later = Sphere::collision_time(&a, &b, &(), &(), &p.dr, &p.dv, 0.0, 2.001 * window);
-        let screened = Sphere::may_collide(&a, &b, &(), &(), &p.dr, &p.dv, 0.0, window);
-        prop_assert!(!screened || later.is_finite(), "passed a pair that misses 2T");
-        if p.dr.dot(&p.dv) >= 0.0 {
-            prop_assert!(!screened, "passed a receding pair");
+        let (a, b, c) = (Sphere::new(p.a.r0), Sphere::new(p.b.r0), Sphere::new(q.b.r0));
+        let dr_q = q.separation_with(&p.a);
+        let lanes = [(&b, &p.dr, &p.dv), (&c, &dr_q, &q.dv)];
+        let screened = screen(&a, lanes, 0.0, window);
+        for (k, (b, dr, dv)) in lanes.into_iter().enumerate() {
+            let later = Sphere::collision_time(&a, b, &(), &(), dr, dv, 0.0, 2.001 * window[k]);
+            prop_assert!(!screened[k] || later.is_finite(), "lane {k} passed a pair that misses 2T");
+            if dr.dot(dv) >= 0.0 {
+                prop_assert!(!screened[k], "lane {k} passed a receding pair");
+            }
         }
     }
 

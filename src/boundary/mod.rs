@@ -13,8 +13,9 @@
 //! itself ([`Boundary::predict_shaped_wall`]); other containers keep the bounding sphere,
 //! which is conservative for any shape.
 
-use crate::shape::{exit_ball_time, Collidable, Vec3};
+use crate::shape::{exit_ball_time, Collidable, Lanes, Lanes3, Vec3};
 use rand::Rng;
+use wide::{CmpGt, CmpLt};
 
 /// Index of a wall of a container (box faces `2·axis + side`, cylinder mantle and caps).
 pub type WallId = u8;
@@ -41,6 +42,9 @@ pub trait Boundary: Clone + Send + Sync + 'static {
     fn volume(&self) -> f64;
     /// Replaces a separation by its minimum image along periodic axes.
     fn minimum_image(&self, dr: &mut Vec3);
+    /// [`Boundary::minimum_image`] of two separations, one per lane, giving in each lane
+    /// exactly the scalar result (up to the sign of a zero).
+    fn minimum_image_lanes(&self, dr: &mut Lanes3);
     /// Wraps a position into the box along periodic axes.
     fn wrap(&self, p: &mut Vec3);
     /// First time `τ ∈ [0, max_tau]` at which a sphere of radius `r` growing at `g`, with
@@ -118,6 +122,12 @@ impl Boundary for PeriodicBox {
         }
     }
     #[inline]
+    fn minimum_image_lanes(&self, dr: &mut Lanes3) {
+        for (d, &len) in dr.iter_mut().zip(self.len.iter()) {
+            *d = nearest_image_lanes(*d, len);
+        }
+    }
+    #[inline]
     fn wrap(&self, p: &mut Vec3) {
         for k in 0..3 {
             p[k] = wrap_coordinate(p[k], self.min[k], self.len[k]);
@@ -181,6 +191,15 @@ fn nearest_image(d: f64, len: f64) -> f64 {
     }
 }
 
+/// [`nearest_image`] in each lane, without a jump: `d − L` where `d > L/2`, `d + L` where
+/// `d < −L/2`, by adding masked lengths (which turns a separation of `−0` into `+0`, a
+/// difference no product of the screen sees).
+#[inline(always)]
+fn nearest_image_lanes(d: Lanes, len: f64) -> Lanes {
+    let (half, len) = (Lanes::splat(0.5 * len), Lanes::splat(len));
+    (d - (d.cmp_gt(half) & len)) + (d.cmp_lt(-half) & len)
+}
+
 /// Wraps `x` into `[min, min + len)`.
 #[inline]
 fn wrap_coordinate(x: f64, min: f64, len: f64) -> f64 {
@@ -235,6 +254,17 @@ impl Boundary for WalledBox {
         for k in 0..3 {
             if self.periodic[k] {
                 dr[k] = nearest_image(dr[k], self.max[k] - self.min[k]);
+            }
+        }
+    }
+    #[inline]
+    fn minimum_image_lanes(&self, dr: &mut Lanes3) {
+        if self.periodic == [false; 3] {
+            return;
+        }
+        for (k, d) in dr.iter_mut().enumerate() {
+            if self.periodic[k] {
+                *d = nearest_image_lanes(*d, self.max[k] - self.min[k]);
             }
         }
     }
@@ -358,6 +388,7 @@ impl Boundary for CylinderContainer {
         std::f64::consts::PI * self.radius * self.radius * self.height
     }
     fn minimum_image(&self, _: &mut Vec3) {}
+    fn minimum_image_lanes(&self, _: &mut Lanes3) {}
     fn wrap(&self, _: &mut Vec3) {}
     fn predict_wall(
         &self,
@@ -434,6 +465,56 @@ mod tests {
         let mut dr = Vec3::new(9.0, -6.0, 2.0);
         b.minimum_image(&mut dr);
         assert_eq!(dr, Vec3::new(-1.0, 4.0, 2.0));
+    }
+
+    /// The two-lane minimum image gives in each lane exactly the scalar one (equal as
+    /// numbers: only the sign of a zero may differ), for separations on both sides of and
+    /// at half the box, with all, some and no axes periodic.
+    #[test]
+    fn minimum_image_in_lanes_matches_the_scalar_one() {
+        use crate::shape::lanes3;
+        use rand::SeedableRng;
+        fn check<B: Boundary>(b: &B, len: &Vec3, rng: &mut rand_xoshiro::Xoshiro256PlusPlus) {
+            let edges = [
+                0.0,
+                0.5,
+                -0.5,
+                0.49999999999999994,
+                -0.5000000000000001,
+                0.99,
+            ];
+            for _ in 0..2000 {
+                let mut d = [0, 1].map(|_| {
+                    Vec3::from_fn(|c, _| {
+                        let u = if rng.gen::<f64>() < 0.2 {
+                            edges[rng.gen_range(0..edges.len())]
+                        } else {
+                            rng.gen_range(-0.999..0.999)
+                        };
+                        u * len[c]
+                    })
+                });
+                let mut lanes = lanes3(&d[0], &d[1]);
+                b.minimum_image_lanes(&mut lanes);
+                for (k, d) in d.iter_mut().enumerate() {
+                    b.minimum_image(d);
+                    assert_eq!(Vec3::from_fn(|c, _| lanes[c].to_array()[k]), *d);
+                }
+            }
+        }
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(11);
+        let (min, len) = (Vec3::new(-1.0, 0.0, 2.0), Vec3::new(10.0, 7.0, 3.5));
+        check(&PeriodicBox { min, len }, &len, &mut rng);
+        for periodic in [[true, false, true], [false; 3]] {
+            let max = min + len;
+            check(&WalledBox { min, max, periodic }, &len, &mut rng);
+        }
+        let cylinder = CylinderContainer {
+            base_center: min,
+            radius: 2.0,
+            height: 5.0,
+        };
+        check(&cylinder, &len, &mut rng);
     }
 
     #[test]

@@ -73,11 +73,13 @@ use crate::boundary::{Boundary, WallId};
 use crate::prefetch;
 use crate::queue::EventQueue;
 use crate::shape::{
-    bounding_sphere_wall_impulse, exit_ball_time, stays_in_ball, Collidable, MassRule, Vec3,
+    bounding_sphere_wall_impulse, exit_ball_time, lanes3, stays_in_ball, Collidable, Lanes,
+    MassRule, Vec3,
 };
 use crate::spatial::{CellGrid, MAX_LEVELS};
 use rand::Rng;
 use rand_distr::StandardNormal;
+use wide::CmpLt;
 
 /// A particle in delayed state: its free flight since its own last event, which only that
 /// particle's events change (the kernel never advances a particle that takes no part in an
@@ -725,15 +727,34 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         }
     }
 
-    /// Whether the neighbour-list spheres of `i` and `j` overlap, and their envelopes
-    /// (shapes with [`Collidable::ENVELOPES`]).
-    #[inline]
-    fn lists_overlap(&self, i: usize, j: usize) -> bool {
-        let mut d = self.list_spheres[i].centre - self.list_spheres[j].centre;
-        self.boundary.minimum_image(&mut d);
-        let reach = self.list_spheres[i].radius + self.list_spheres[j].radius;
-        d.norm_squared() < reach * reach
-            && (!S::ENVELOPES || S::envelopes_overlap(&self.envelopes[i], &self.envelopes[j], &d))
+    /// Appends to `out` the `candidates` other than `i` whose neighbour-list spheres overlap
+    /// `i`'s, and their envelopes (shapes with [`Collidable::ENVELOPES`]). The sphere test
+    /// runs on two candidates per step in packed lanes, with the numbers of the scalar test
+    /// `|c_i − c_j|² < (r_i + r_j)²` (a neighbour-list update tests some 60 candidates for
+    /// about 14 neighbours; BENCHMARKS.md, session 14).
+    fn overlapping_lists(&self, i: usize, candidates: &[u32], out: &mut NeighbourList) {
+        let sphere_i = &self.list_spheres[i];
+        for two in candidates.chunks(2) {
+            let s = [two[0], two[two.len() - 1]].map(|j| &self.list_spheres[j as usize]);
+            let mut d = [0, 1, 2].map(|k| {
+                Lanes::splat(sphere_i.centre[k]) - Lanes::new([s[0].centre[k], s[1].centre[k]])
+            });
+            self.boundary.minimum_image_lanes(&mut d);
+            let reach = Lanes::splat(sphere_i.radius) + Lanes::new([s[0].radius, s[1].radius]);
+            let apart = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            let overlap = apart.cmp_lt(reach * reach).move_mask();
+            for (k, &j) in two.iter().enumerate() {
+                let keep = j as usize != i
+                    && overlap & (1 << k) != 0
+                    && (!S::ENVELOPES || {
+                        let d = Vec3::from_fn(|c, _| d[c].to_array()[k]);
+                        S::envelopes_overlap(&self.envelopes[i], &self.envelopes[j as usize], &d)
+                    });
+                if keep {
+                    out.push(j);
+                }
+            }
+        }
     }
 
     /// Builds every neighbour list from the current spheres.
@@ -742,6 +763,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             list.clear();
         }
         let mut candidates = std::mem::take(&mut self.scratch);
+        let mut overlapping = NeighbourList::new();
         for i in 0..self.particles.len() {
             self.list_candidates(i, &mut candidates);
             if self.tracks_images() {
@@ -752,12 +774,11 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 self.neighbours[i] = own;
                 continue;
             }
-            for &j in &candidates {
-                let j = j as usize;
-                if j > i && self.lists_overlap(i, j) {
-                    self.neighbours[i].push(j as u32);
-                    self.neighbours[j].push(i as u32);
-                }
+            overlapping.clear();
+            self.overlapping_lists(i, &candidates, &mut overlapping);
+            for &j in overlapping.iter().filter(|&&j| j as usize > i) {
+                self.neighbours[i].push(j);
+                self.neighbours[j as usize].push(i as u32);
             }
         }
         self.scratch = candidates;
@@ -802,12 +823,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 self.link_images(i, j as usize, &mut new);
             }
         } else {
-            new.extend(
-                candidates
-                    .iter()
-                    .copied()
-                    .filter(|&j| j as usize != i && self.lists_overlap(i, j as usize)),
-            );
+            self.overlapping_lists(i, &candidates, &mut new);
             // Most partners stay: only the lists of those that leave or arrive are edited
             // (two scans of the short lists instead of a cache miss on every partner's
             // list; measured: BENCHMARKS.md, design decisions).
@@ -880,7 +896,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     ///    [`Collidable::SCREENS_PAIRS`]) marks the neighbours that may meet `i` within the
     ///    horizon, without the square root and division of a contact time: in the φ = 0.5
     ///    fluid 84 % of the neighbours recede, miss or meet after the barrier
-    ///    (BENCHMARKS.md, session 11);
+    ///    (BENCHMARKS.md, session 11). Two neighbours per step, one per lane of packed
+    ///    arithmetic ([`Lanes`]; BENCHMARKS.md, session 14);
     /// 2. contact times ([`Collidable::collision_time`], `+∞` for none) for those only;
     ///
     ///    both passes append to a buffer whose end moves past an entry only if it is kept:
@@ -912,49 +929,90 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             Partners::AllBut(k) => (k, 0),
             Partners::Above => (i, i + 1),
         };
-        let neighbours = &self.neighbours[i];
+        let neighbours = self.neighbours[i].as_slice();
         let mut found = std::mem::take(&mut self.pair_times);
-        if found.len() < neighbours.len() {
-            found.resize(neighbours.len(), (f64::INFINITY, 0));
+        // One slot more than neighbours: an odd last step writes one past them.
+        if found.len() <= neighbours.len() {
+            found.resize(neighbours.len() + 1, (f64::INFINITY, 0));
         }
+        // The horizon of the pair of `i` and `j`.
+        let horizon_with = |j: usize| {
+            if S::ENVELOPES {
+                max_tau.min((exit_i.min(self.list_exit[j]) - t).max(0.0))
+            } else {
+                max_tau
+            }
+        };
         // The relative position, velocity and rotation of partner `entry`, and the horizon
         // of the pair.
         let pair = |entry: u32| {
             let j = self.partner_index(entry);
             let pj = &self.particles[j];
             let dr = self.separation(i, &pos_i, j, &pj.position_at(t), entry);
-            let horizon = if S::ENVELOPES {
-                max_tau.min((exit_i.min(self.list_exit[j]) - t).max(0.0))
-            } else {
-                max_tau
-            };
-            (pj, dr, vel_i - pj.vel, pj.spin_at(t), horizon)
+            (pj, dr, vel_i - pj.vel, pj.spin_at(t), horizon_with(j))
         };
-        // Screen: the neighbours that may meet `i` within the horizon.
+        // Whether the pass leaves out partner `j`; a particle's own images are partners
+        // like any other.
+        let skip = |j: usize| ((j == except) | (j < first)) & !(self.tracks_images() && j == i);
         let mut count = 0;
-        for (k, &entry) in neighbours.iter().enumerate() {
-            let j = self.partner_index(entry);
-            // A particle's own images are partners like any other.
-            let skip = (j == except || j < first) && !(self.tracks_images() && j == i);
-            let may_meet = !S::SCREENS_PAIRS || {
-                let (pj, dr, dv, spin_j, horizon) = pair(entry);
-                S::may_collide(&shape_i, &pj.shape, &spin_i, &spin_j, &dr, &dv, t, horizon)
-            };
-            let pass = !skip & may_meet;
-            // Kept by moving the end past it, not by a branch.
-            found[count].1 = k as u32;
-            count += usize::from(pass);
+        if S::SCREENS_PAIRS {
+            // Screen: the neighbours that may meet `i` within the horizon, two per step in
+            // the two lanes of packed arithmetic (BENCHMARKS.md, session 14). An odd last
+            // neighbour fills both lanes and counts once. Partners to leave out are dropped
+            // in the next pass, which sees a fifth of the neighbours.
+            for (step, two) in neighbours.chunks(2).enumerate() {
+                let entries = [two[0], two[two.len() - 1]];
+                let pj = entries.map(|e| &self.particles[self.partner_index(e)]);
+                let (dr, dv) = if self.tracks_images() {
+                    let (a, b) = (pair(entries[0]), pair(entries[1]));
+                    (lanes3(&a.1, &b.1), lanes3(&a.2, &b.2))
+                } else {
+                    let lanes = |f: fn(&Particle<S>) -> &Vec3, k: usize| {
+                        Lanes::new([f(pj[0])[k], f(pj[1])[k]])
+                    };
+                    let at_t = |k| lanes(|p| &p.pos, k) + lanes(|p| &p.vel, k) * Lanes::splat(t);
+                    let mut dr = [0, 1, 2].map(|k| Lanes::splat(pos_i[k]) - at_t(k));
+                    self.boundary.minimum_image_lanes(&mut dr);
+                    let dv = [0, 1, 2].map(|k| Lanes::splat(vel_i[k]) - lanes(|p| &p.vel, k));
+                    (dr, dv)
+                };
+                let spin_j = pj.map(|p| p.spin_at(t));
+                let horizon = entries.map(|e| horizon_with(self.partner_index(e)));
+                let pass = S::may_collide(
+                    &shape_i,
+                    [&pj[0].shape, &pj[1].shape],
+                    &spin_i,
+                    [&spin_j[0], &spin_j[1]],
+                    &dr,
+                    &dv,
+                    t,
+                    Lanes::new(horizon),
+                );
+                // Kept by moving the end past it, not by a branch.
+                found[count].1 = 2 * step as u32;
+                count += usize::from(pass[0]);
+                found[count].1 = 2 * step as u32 + 1;
+                count += usize::from(pass[1] & (two.len() == 2));
+            }
+        } else {
+            // Every partner not left out (for shapes without a screen a contact time is
+            // dear).
+            for (k, &entry) in neighbours.iter().enumerate() {
+                found[count].1 = k as u32;
+                count += usize::from(!skip(self.partner_index(entry)));
+            }
         }
-        // Times of those that passed, keeping the ones that meet.
+        // Times of those that passed, keeping the ones that meet and are not left out.
         let screened = count;
         count = 0;
         for m in 0..screened {
             let k = found[m].1;
-            let (pj, dr, dv, spin_j, horizon) = pair(neighbours[k as usize]);
+            let entry = neighbours[k as usize];
+            let (pj, dr, dv, spin_j, horizon) = pair(entry);
             let tau =
                 S::collision_time(&shape_i, &pj.shape, &spin_i, &spin_j, &dr, &dv, t, horizon);
             found[count] = (tau, k);
-            count += usize::from(tau < f64::INFINITY);
+            count += usize::from((tau < f64::INFINITY) & !skip(self.partner_index(entry)));
         }
         let found_now = &mut found[..count];
         if count > LOCAL_CAPACITY {

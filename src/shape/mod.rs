@@ -24,6 +24,21 @@ pub use sphere::{predict_sphere_sphere, Sphere};
 /// Three-vector of `f64`, the only vector type of the kernel.
 pub type Vec3 = nalgebra::Vector3<f64>;
 
+/// Two `f64` lanes, one pair of particles per lane: the prediction pass screens two
+/// neighbours with one packed instruction per operation ([`Collidable::may_collide`]).
+/// Lane arithmetic is IEEE arithmetic on each lane, so a lane holds exactly the number the
+/// same scalar operations give.
+pub type Lanes = wide::f64x2;
+
+/// A three-vector per lane, by coordinate: `[x, y, z]`, each holding two pairs' values.
+pub type Lanes3 = [Lanes; 3];
+
+/// Two three-vectors as lanes: `a` in lane 0, `b` in lane 1.
+#[inline(always)]
+pub fn lanes3(a: &Vec3, b: &Vec3) -> Lanes3 {
+    [0, 1, 2].map(|k| Lanes::new([a[k], b[k]]))
+}
+
 /// How particle masses are assigned (paper 001, §5.3).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -213,25 +228,27 @@ pub trait Collidable: Clone + Send + Sync + 'static {
     /// default): without, the kernel skips the screen and its pass, and a pair's relative
     /// state (for rotating shapes not cheap) is computed once.
     const SCREENS_PAIRS: bool = false;
-    /// Whether `a` and `b` may touch within `[0, max_tau]` (the arguments of
-    /// [`Self::collision_time`]): a cheap screen that the kernel's prediction pass runs on
-    /// every neighbour, asking [`Self::collision_time`] only for those that pass. It may
-    /// pass a pair that then does not meet, but must never reject one that
-    /// [`Self::collision_time`] gives a time. The default passes every pair (and is not
-    /// called unless [`Collidable::SCREENS_PAIRS`]).
+    /// Whether `a` and `b[k]` may touch within `[0, max_tau[k]]` (the arguments of
+    /// [`Self::collision_time`], two pairs at once: pair `k` in lane `k` of `dr`, `dv` and
+    /// `max_tau`): a cheap screen that the kernel's prediction pass runs on every
+    /// neighbour, asking [`Self::collision_time`] only for those that pass. It may pass a
+    /// pair that then does not meet, but must never reject one that
+    /// [`Self::collision_time`] gives a time, and each lane's answer depends on that lane
+    /// alone. The default passes every pair (and is not called unless
+    /// [`Collidable::SCREENS_PAIRS`]).
     #[allow(clippy::too_many_arguments)]
     #[inline]
     fn may_collide(
         _a: &Self,
-        _b: &Self,
+        _b: [&Self; 2],
         _sa: &Self::Spin,
-        _sb: &Self::Spin,
-        _dr: &Vec3,
-        _dv: &Vec3,
+        _sb: [&Self::Spin; 2],
+        _dr: &Lanes3,
+        _dv: &Lanes3,
         _t: f64,
-        _max_tau: f64,
-    ) -> bool {
-        true
+        _max_tau: Lanes,
+    ) -> [bool; 2] {
+        [true; 2]
     }
     /// Resolves a contact at time `t`: returns the linear impulse on `a` (the impulse on `b`
     /// is its negative) for masses `ma`, `mb`, and applies the angular part to `sa`, `sb`.

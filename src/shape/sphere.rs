@@ -1,7 +1,8 @@
 //! The growing hard sphere.
 
-use super::{first_falling_root, Collidable, Growth, Vec3};
+use super::{first_falling_root, Collidable, Growth, Lanes, Lanes3, Vec3};
 use std::f64::consts::PI;
+use wide::{CmpEq, CmpGe, CmpLe, CmpLt};
 
 /// A sphere of radius `r(t) = r0 + g·t` (paper 001, Eq. 20). Rotation-free: a sphere-only
 /// scene carries no orientation state at all.
@@ -46,16 +47,24 @@ pub fn predict_sphere_sphere(
 
 /// Coefficients `(a, b, c)` of the gap function `f(τ) = a τ² + 2 b τ + c` of two growing
 /// spheres (paper 001, Eq. 22): `a = dv² − G²`, `b = dr·dv − σ G`, `c = dr² − σ²`, with `σ`
-/// the sum of the radii and `G` of the growth rates. One evaluation for
-/// [`sphere_contact_time`] and [`sphere_contact_possible`], so that the screen decides on
-/// the very numbers the time is computed from.
+/// the sum of the radii and `G` of the growth rates (`None`: `G = 0`, the same numbers
+/// without the terms that subtract `+0`), `dr` and `dv` by coordinate. One formula for
+/// [`sphere_contact_time`] (`T = f64`) and the two-lane screen [`sphere_contact_possible`]
+/// (`T = Lanes`), so that the screen decides on the very numbers the time is computed from:
+/// the same operations in the same order (dot products summed `(x + y) + z`), and IEEE
+/// arithmetic per lane.
 #[inline(always)]
-fn gap_coefficients(sigma: f64, growth: f64, dr: &Vec3, dv: &Vec3) -> (f64, f64, f64) {
-    (
-        dv.norm_squared() - growth * growth,
-        dr.dot(dv) - sigma * growth,
-        dr.norm_squared() - sigma * sigma,
-    )
+fn gap_coefficients<T>(sigma: T, growth: Option<T>, dr: [T; 3], dv: [T; 3]) -> (T, T, T)
+where
+    T: Copy + std::ops::Add<Output = T> + std::ops::Sub<Output = T> + std::ops::Mul<Output = T>,
+{
+    let dot = |x: [T; 3], y: [T; 3]| x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
+    let (a, b) = (dot(dv, dv), dot(dr, dv));
+    let (a, b) = match growth {
+        Some(g) => (a - g * g, b - sigma * g),
+        None => (a, b),
+    };
+    (a, b, dot(dr, dr) - sigma * sigma)
 }
 
 /// [`predict_sphere_sphere`] as a time, `+∞` for no contact within `[0, max_tau]`.
@@ -71,7 +80,7 @@ fn gap_coefficients(sigma: f64, growth: f64, dr: &Vec3, dv: &Vec3) -> (f64, f64,
 /// of `b`, so one division serves both.
 #[inline]
 pub fn sphere_contact_time(sigma: f64, growth: f64, dr: &Vec3, dv: &Vec3, max_tau: f64) -> f64 {
-    let (a, b, c) = gap_coefficients(sigma, growth, dr, dv);
+    let (a, b, c) = gap_coefficients(sigma, Some(growth), (*dr).into(), (*dv).into());
     if c <= 0.0 {
         // Touching or overlapping by rounding: rare, handled by the general rule.
         return first_falling_root(a, b, c)
@@ -92,12 +101,14 @@ pub fn sphere_contact_time(sigma: f64, growth: f64, dr: &Vec3, dv: &Vec3, max_ta
     pick(valid, tau, f64::INFINITY)
 }
 
-/// Whether two growing spheres may touch within `[0, max_tau]`: a screen with the
-/// conditions of [`sphere_contact_time`] but without its square root and division, the slow
-/// part of a prediction (the divider is not pipelined), which 86 % of the neighbours in the
-/// φ = 0.5 fluid do not need: they recede, miss or meet after the barrier (BENCHMARKS.md,
-/// session 11). It never rejects a pair that [`sphere_contact_time`] gives a time, so the
-/// kernel's predictions are those without it.
+/// Whether two growing spheres may touch within `[0, max_tau]`, for two pairs at once (pair
+/// `k` in lane `k`; bit `k` of the result): a screen with the conditions of
+/// [`sphere_contact_time`] but without its square root and division, the slow part of a
+/// prediction (the divider is not pipelined), which 86 % of the neighbours in the φ = 0.5
+/// fluid do not need: they recede, miss or meet after the barrier (BENCHMARKS.md, session
+/// 11). It never rejects a pair that [`sphere_contact_time`] gives a time, so the kernel's
+/// predictions are those without it. Two lanes because the kernel's pass screens two
+/// neighbours per step (BENCHMARKS.md, session 14).
 ///
 /// With the gap function `f(τ) = a τ² + 2 b τ + c` (apart: `c > 0`) and the horizon `T`:
 /// - without growth (`a ≥ 0`), `f(τ) ≥ c + 2 b τ ≥ c + 2 b T` on `[0, T]` for an
@@ -116,25 +127,39 @@ pub fn sphere_contact_time(sigma: f64, growth: f64, dr: &Vec3, dv: &Vec3, max_ta
 /// inside it. Touching pairs (`c ≤ 0`) always pass.
 #[inline]
 pub fn sphere_contact_possible(
-    sigma: f64,
-    growth: f64,
-    dr: &Vec3,
-    dv: &Vec3,
-    max_tau: f64,
-) -> bool {
-    let (a, b, c) = gap_coefficients(sigma, growth, dr, dv);
+    sigma: Lanes,
+    growth: Lanes,
+    dr: &Lanes3,
+    dv: &Lanes3,
+    max_tau: Lanes,
+) -> [bool; 2] {
+    let zero = Lanes::ZERO;
+    let no_growth = growth.cmp_eq(zero);
+    // The same for every pair of a scene, so this branch is always predicted.
+    let without = no_growth.all();
+    let (a, b, c) = gap_coefficients(sigma, (!without).then_some(growth), *dr, *dv);
     let disc = b * b - a * c;
-    let horizon = max_tau * (1.0 + 1e-9);
-    let approaching = (b < 0.0) & (disc >= 0.0);
-    if growth == 0.0 {
-        // The same for every pair of a scene, so this branch is always predicted.
-        return (c <= 0.0) | (approaching & (c + 2.0 * b * horizon <= 0.0));
-    }
-    let x = c + horizon * b;
-    let approaching_in_time = approaching & ((x <= 0.0) | (x * x <= horizon * horizon * disc));
-    let y = -a * horizon - b;
-    let receding_in_time = (b >= 0.0) & (a < 0.0) & (y >= 0.0) & (disc <= y * y);
-    (c <= 0.0) | approaching_in_time | receding_in_time
+    let horizon = max_tau * Lanes::splat(1.0 + 1e-9);
+    let touching = c.cmp_le(zero);
+    let approaching = b.cmp_lt(zero) & disc.cmp_ge(zero);
+    let without_growth =
+        touching | (approaching & (c + Lanes::splat(2.0) * b * horizon).cmp_le(zero));
+    let pass = if without {
+        without_growth
+    } else {
+        let x = c + horizon * b;
+        let approaching_in_time =
+            approaching & (x.cmp_le(zero) | (x * x).cmp_le(horizon * horizon * disc));
+        let y = -a * horizon - b;
+        let receding_in_time =
+            b.cmp_ge(zero) & a.cmp_lt(zero) & y.cmp_ge(zero) & disc.cmp_le(y * y);
+        no_growth.blend(
+            without_growth,
+            touching | approaching_in_time | receding_in_time,
+        )
+    };
+    let bits = pass.move_mask();
+    [bits & 1 != 0, bits & 2 != 0]
 }
 
 /// `if condition { x } else { y }`, marked unpredictable so that the compiler emits a select
@@ -204,15 +229,17 @@ impl Collidable for Sphere {
     #[inline]
     fn may_collide(
         a: &Self,
-        b: &Self,
+        b: [&Self; 2],
         _: &(),
-        _: &(),
-        dr: &Vec3,
-        dv: &Vec3,
+        _: [&(); 2],
+        dr: &Lanes3,
+        dv: &Lanes3,
         t: f64,
-        max_tau: f64,
-    ) -> bool {
-        sphere_contact_possible(a.radius(t) + b.radius(t), a.g + b.g, dr, dv, max_tau)
+        max_tau: Lanes,
+    ) -> [bool; 2] {
+        let sigma = Lanes::splat(a.radius(t)) + Lanes::new([b[0].radius(t), b[1].radius(t)]);
+        let growth = Lanes::splat(a.g) + Lanes::new([b[0].g, b[1].g]);
+        sphere_contact_possible(sigma, growth, dr, dv, max_tau)
     }
 
     #[inline]
