@@ -102,7 +102,7 @@ pub fn sphere_contact_time(sigma: f64, growth: f64, dr: &Vec3, dv: &Vec3, max_ta
 }
 
 /// Whether two growing spheres may touch within `[0, max_tau]`, for two pairs at once (pair
-/// `k` in lane `k`; bit `k` of the result): a screen with the conditions of
+/// `k` in lane `k`, its answer in element `k`): a screen with the conditions of
 /// [`sphere_contact_time`] but without its square root and division, the slow part of a
 /// prediction (the divider is not pipelined), which 86 % of the neighbours in the φ = 0.5
 /// fluid do not need: they recede, miss or meet after the barrier (BENCHMARKS.md, session
