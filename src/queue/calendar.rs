@@ -173,7 +173,10 @@ impl CalendarQueue {
         let x = (t - self.origin) * self.inv_width;
         if x >= 0.0 {
             if x < nb as f64 {
-                x as usize
+                // `x < nb ≤ MAX_BUCKETS` fits a `u32`, whose conversion is a few instructions
+                // where the saturating one to `usize` (no unsigned conversion in SSE2) takes
+                // about twenty; both truncate to the same bucket (BENCHMARKS.md, session 14).
+                x as u32 as usize
             } else {
                 nb
             }
