@@ -147,6 +147,12 @@ pub(super) struct LocalLists {
 }
 
 impl LocalLists {
+    /// The events of list `i`, empty slots included (tests).
+    #[cfg(test)]
+    pub(super) fn events(&self, i: usize) -> &[LocalEvent; LOCAL_CAPACITY] {
+        &self.events[i]
+    }
+
     /// `n` empty lists.
     pub(super) fn new(n: usize) -> Self {
         Self {

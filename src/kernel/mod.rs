@@ -1541,6 +1541,49 @@ impl EventBudget {
 mod tests {
     use super::permute_in_place;
 
+    /// At a barrier each pair's collision is predicted from its lower index only
+    /// (`Partners::Above`): no pair sits in both particles' lists. The kernel drops the
+    /// left-out partners after the screen, in the contact-time pass.
+    #[test]
+    fn a_barrier_lists_each_pair_once() {
+        use super::{Edmd, EventKind, KernelConfig};
+        use crate::boundary::PeriodicBox;
+        use crate::protocol::rsa::rsa_spheres;
+        use crate::queue::CalendarQueue;
+        use crate::shape::{Sphere, Vec3};
+        use rand::SeedableRng;
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(5);
+        let boundary = PeriodicBox {
+            min: Vec3::zeros(),
+            len: Vec3::new(9.0, 9.0, 9.0),
+        };
+        let radii = vec![0.5; 300];
+        let centres = rsa_spheres(&boundary, &radii, 0.0, 0.0, 100_000, &mut rng).unwrap();
+        let shapes = radii.iter().map(|&r| Sphere { r0: r, g: 0.05 }).collect();
+        let mut k: Edmd<Sphere, PeriodicBox, CalendarQueue> =
+            Edmd::new(centres, shapes, boundary, KernelConfig::default(), &mut rng);
+        k.begin_interval(2.0);
+        let partners = |k: &Edmd<Sphere, PeriodicBox, CalendarQueue>, i: usize| {
+            k.local
+                .events(i)
+                .iter()
+                .filter_map(|e| match e.kind() {
+                    EventKind::Collision { partner, .. } if e.time.is_finite() => {
+                        Some(k.partner_index(partner))
+                    }
+                    _ => None,
+                })
+                .collect::<Vec<_>>()
+        };
+        let mut listed = 0;
+        for i in 0..300 {
+            let p = partners(&k, i);
+            assert!(p.iter().all(|&j| j > i), "{i} lists {p:?} after a barrier");
+            listed += p.len();
+        }
+        assert!(listed > 20, "only {listed} collisions predicted");
+    }
+
     #[test]
     fn a_neighbour_list_fills_one_cache_line() {
         assert_eq!(std::mem::size_of::<super::NeighbourList>(), 64);
