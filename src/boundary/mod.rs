@@ -467,7 +467,8 @@ mod tests {
         assert_eq!(dr, Vec3::new(-1.0, 4.0, 2.0));
     }
 
-    /// The two-lane minimum image gives in each lane exactly the scalar one (equal as
+    /// The two-lane minimum image shifts each lane by a whole period into `[−L/2, L/2]` on
+    /// periodic axes and leaves the others, and gives exactly the scalar result (equal as
     /// numbers: only the sign of a zero may differ), for separations on both sides of and
     /// at half the box, with all, some and no axes periodic.
     #[test]
@@ -497,8 +498,21 @@ mod tests {
                 let mut lanes = lanes3(&d[0], &d[1]);
                 b.minimum_image_lanes(&mut lanes);
                 for (k, d) in d.iter_mut().enumerate() {
+                    let before = *d;
+                    let got = Vec3::from_fn(|c, _| lanes[c].to_array()[k]);
+                    // The definition: a shift by a whole period, into [−L/2, L/2], along
+                    // periodic axes only (exact: L/2 < |d| < L for a shifted one, Sterbenz).
+                    for c in 0..3 {
+                        let shift = before[c] - got[c];
+                        if b.periodic()[c] {
+                            assert!([-len[c], 0.0, len[c]].contains(&shift), "{before} → {got}");
+                            assert!(got[c].abs() <= 0.5 * len[c], "{before} → {got}");
+                        } else {
+                            assert_eq!(shift, 0.0, "{before} → {got}");
+                        }
+                    }
                     b.minimum_image(d);
-                    assert_eq!(Vec3::from_fn(|c, _| lanes[c].to_array()[k]), *d);
+                    assert_eq!(got, *d);
                 }
             }
         }

@@ -736,9 +736,10 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let sphere_i = &self.list_spheres[i];
         for two in candidates.chunks(2) {
             let s = [two[0], two[two.len() - 1]].map(|j| &self.list_spheres[j as usize]);
-            let mut d = [0, 1, 2].map(|k| {
-                Lanes::splat(sphere_i.centre[k]) - Lanes::new([s[0].centre[k], s[1].centre[k]])
-            });
+            let mut d = lanes3(
+                &(sphere_i.centre - s[0].centre),
+                &(sphere_i.centre - s[1].centre),
+            );
             self.boundary.minimum_image_lanes(&mut d);
             let reach = Lanes::splat(sphere_i.radius) + Lanes::new([s[0].radius, s[1].radius]);
             let apart = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
@@ -774,9 +775,11 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 self.neighbours[i] = own;
                 continue;
             }
+            // Each pair once, from its lower index.
+            candidates.retain(|&j| j as usize > i);
             overlapping.clear();
             self.overlapping_lists(i, &candidates, &mut overlapping);
-            for &j in overlapping.iter().filter(|&&j| j as usize > i) {
+            for &j in &overlapping {
                 self.neighbours[i].push(j);
                 self.neighbours[j as usize].push(i as u32);
             }
@@ -962,22 +965,21 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             // in the next pass, which sees a fifth of the neighbours.
             for (step, two) in neighbours.chunks(2).enumerate() {
                 let entries = [two[0], two[two.len() - 1]];
-                let pj = entries.map(|e| &self.particles[self.partner_index(e)]);
-                let (dr, dv) = if self.tracks_images() {
-                    let (a, b) = (pair(entries[0]), pair(entries[1]));
-                    (lanes3(&a.1, &b.1), lanes3(&a.2, &b.2))
+                let j = entries.map(|e| self.partner_index(e));
+                let pj = j.map(|j| &self.particles[j]);
+                let dr = if self.tracks_images() {
+                    let dr = entries.map(|e| pair(e).1);
+                    lanes3(&dr[0], &dr[1])
                 } else {
-                    let lanes = |f: fn(&Particle<S>) -> &Vec3, k: usize| {
-                        Lanes::new([f(pj[0])[k], f(pj[1])[k]])
-                    };
-                    let at_t = |k| lanes(|p| &p.pos, k) + lanes(|p| &p.vel, k) * Lanes::splat(t);
-                    let mut dr = [0, 1, 2].map(|k| Lanes::splat(pos_i[k]) - at_t(k));
+                    // The minimum image in lanes, without the scalar one's jumps.
+                    let dr = pj.map(|p| pos_i - p.position_at(t));
+                    let mut dr = lanes3(&dr[0], &dr[1]);
                     self.boundary.minimum_image_lanes(&mut dr);
-                    let dv = [0, 1, 2].map(|k| Lanes::splat(vel_i[k]) - lanes(|p| &p.vel, k));
-                    (dr, dv)
+                    dr
                 };
+                let dv = lanes3(&(vel_i - pj[0].vel), &(vel_i - pj[1].vel));
                 let spin_j = pj.map(|p| p.spin_at(t));
-                let horizon = entries.map(|e| horizon_with(self.partner_index(e)));
+                let horizon = j.map(horizon_with);
                 let pass = S::may_collide(
                     &shape_i,
                     [&pj[0].shape, &pj[1].shape],

@@ -134,18 +134,17 @@ pub fn sphere_contact_possible(
     max_tau: Lanes,
 ) -> [bool; 2] {
     let zero = Lanes::ZERO;
-    let no_growth = growth.cmp_eq(zero);
     // The same for every pair of a scene, so this branch is always predicted.
-    let without = no_growth.all();
+    let without = growth.cmp_eq(zero).all();
     let (a, b, c) = gap_coefficients(sigma, (!without).then_some(growth), *dr, *dv);
     let disc = b * b - a * c;
     let horizon = max_tau * Lanes::splat(1.0 + 1e-9);
     let touching = c.cmp_le(zero);
     let approaching = b.cmp_lt(zero) & disc.cmp_ge(zero);
-    let without_growth =
-        touching | (approaching & (c + Lanes::splat(2.0) * b * horizon).cmp_le(zero));
+    // A lane without growth in a step with growth takes the exact test, which holds for
+    // any `a`: both tests pass every pair with a time.
     let pass = if without {
-        without_growth
+        touching | (approaching & (c + Lanes::splat(2.0) * b * horizon).cmp_le(zero))
     } else {
         let x = c + horizon * b;
         let approaching_in_time =
@@ -153,10 +152,7 @@ pub fn sphere_contact_possible(
         let y = -a * horizon - b;
         let receding_in_time =
             b.cmp_ge(zero) & a.cmp_lt(zero) & y.cmp_ge(zero) & disc.cmp_le(y * y);
-        no_growth.blend(
-            without_growth,
-            touching | approaching_in_time | receding_in_time,
-        )
+        touching | approaching_in_time | receding_in_time
     };
     let bits = pass.move_mask();
     [bits & 1 != 0, bits & 2 != 0]
