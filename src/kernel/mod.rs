@@ -292,7 +292,7 @@ pub struct Edmd<S: Collidable, B: Boundary, Q: EventQueue> {
     updates_at_sort: u64,
     /// Current neighbour-list skin (relative to the radius).
     skin: f64,
-    /// Reused buffer for neighbour-list candidates.
+    /// Reused buffer for neighbour-list candidates, and for the partners of a barrier's pass.
     scratch: Vec<u32>,
     /// Reused buffer of [`Self::predict_pairs`]: the contact times found in a pass, with
     /// the neighbour's position in the list.
@@ -932,8 +932,22 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             Partners::AllBut(k) => (k, 0),
             Partners::Above => (i, i + 1),
         };
-        let neighbours = self.neighbours[i].as_slice();
+        // Whether the pass leaves out partner `j`; a particle's own images are partners
+        // like any other.
+        let own_images = self.tracks_images();
+        let skip = move |j: usize| ((j == except) | (j < first)) & !(own_images && j == i);
+        // A barrier's pass (`Above`) leaves out half the neighbours: they are dropped before
+        // the screen rather than screened for nothing (BENCHMARKS.md, session 15).
+        let mut above = std::mem::take(&mut self.scratch);
         let mut found = std::mem::take(&mut self.pair_times);
+        let neighbours = if matches!(partners, Partners::Above) {
+            above.clear();
+            let listed = self.neighbours[i].iter();
+            above.extend(listed.filter(|&&e| !skip(self.partner_index(e))));
+            above.as_slice()
+        } else {
+            self.neighbours[i].as_slice()
+        };
         // One slot more than neighbours: an odd last step writes one past them.
         if found.len() <= neighbours.len() {
             found.resize(neighbours.len() + 1, (f64::INFINITY, 0));
@@ -954,9 +968,6 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             let dr = self.separation(i, &pos_i, j, &pj.position_at(t), entry);
             (pj, dr, vel_i - pj.vel, pj.spin_at(t), horizon_with(j))
         };
-        // Whether the pass leaves out partner `j`; a particle's own images are partners
-        // like any other.
-        let skip = |j: usize| ((j == except) | (j < first)) & !(self.tracks_images() && j == i);
         let mut count = 0;
         if S::SCREENS_PAIRS {
             // Screen: the neighbours that may meet `i` within the horizon, two per step in
@@ -1037,6 +1048,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         }
         self.local.set(i, list);
         self.pair_times = found;
+        self.scratch = above;
     }
 
     /// Asks the memory system for the state of every partner of `i` before a prediction
