@@ -972,8 +972,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         if S::SCREENS_PAIRS {
             // Screen: the neighbours that may meet `i` within the horizon, two per step in
             // the two lanes of packed arithmetic (BENCHMARKS.md, session 14). An odd last
-            // neighbour fills both lanes and counts once. Partners to leave out are dropped
-            // in the next pass, which sees a fifth of the neighbours.
+            // neighbour fills both lanes and counts once. A partner still to leave out (the
+            // collision's) is dropped in the next pass, which sees a fifth of the neighbours.
             for (step, two) in neighbours.chunks(2).enumerate() {
                 let entries = [two[0], two[two.len() - 1]];
                 let j = entries.map(|e| self.partner_index(e));
