@@ -73,7 +73,7 @@ use crate::boundary::{Boundary, WallId};
 use crate::prefetch;
 use crate::queue::EventQueue;
 use crate::shape::{
-    bounding_sphere_wall_impulse, exit_ball_time, lanes3, stays_in_ball, Collidable, Lanes,
+    bounding_sphere_wall_impulse, exit_ball_time, lane, lanes3, stays_in_ball, Collidable, Lanes,
     MassRule, Vec3,
 };
 use crate::spatial::{CellGrid, MAX_LEVELS};
@@ -748,8 +748,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 let keep = j as usize != i
                     && overlap & (1 << k) != 0
                     && (!S::ENVELOPES || {
-                        let d = Vec3::from_fn(|c, _| d[c].to_array()[k]);
-                        S::envelopes_overlap(&self.envelopes[i], &self.envelopes[j as usize], &d)
+                        let (e_i, e_j) = (&self.envelopes[i], &self.envelopes[j as usize]);
+                        S::envelopes_overlap(e_i, e_j, &lane(&d, k))
                     });
                 if keep {
                     out.push(j);
@@ -937,7 +937,9 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let own_images = self.tracks_images();
         let skip = move |j: usize| ((j == except) | (j < first)) & !(own_images && j == i);
         // A barrier's pass (`Above`) leaves out half the neighbours: they are dropped before
-        // the screen rather than screened for nothing (BENCHMARKS.md, session 15).
+        // the screen rather than screened for nothing. The one partner a collision's second
+        // pass leaves out (`AllBut`) is dropped in the contact-time pass instead: copying the
+        // list to drop one entry costs more (BENCHMARKS.md, session 15).
         let mut above = std::mem::take(&mut self.scratch);
         let mut found = std::mem::take(&mut self.pair_times);
         let neighbours = if matches!(partners, Partners::Above) {
@@ -972,8 +974,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         if S::SCREENS_PAIRS {
             // Screen: the neighbours that may meet `i` within the horizon, two per step in
             // the two lanes of packed arithmetic (BENCHMARKS.md, session 14). An odd last
-            // neighbour fills both lanes and counts once. A partner still to leave out (the
-            // collision's) is dropped in the next pass, which sees a fifth of the neighbours.
+            // neighbour fills both lanes and counts once.
             for (step, two) in neighbours.chunks(2).enumerate() {
                 let entries = [two[0], two[two.len() - 1]];
                 let j = entries.map(|e| self.partner_index(e));
@@ -1556,8 +1557,7 @@ mod tests {
     use super::permute_in_place;
 
     /// At a barrier each pair's collision is predicted from its lower index only
-    /// (`Partners::Above`): no pair sits in both particles' lists. The kernel drops the
-    /// left-out partners after the screen, in the contact-time pass.
+    /// (`Partners::Above`): no pair sits in both particles' lists.
     #[test]
     fn a_barrier_lists_each_pair_once() {
         use super::{Edmd, EventKind, KernelConfig};
