@@ -283,6 +283,10 @@ trait ShapeRun {
 }
 
 /// What [`ShapeRun::seed`] gives.
+#[expect(
+    clippy::large_enum_variant,
+    reason = "one value per run, moved once: its size costs nothing"
+)]
 enum Seeded<S: Collidable, B: Boundary, Q: EventQueue> {
     /// A kernel ready for the first stage, and the seconds its seeding took.
     Kernel(Edmd<S, B, Q>, f64),

@@ -143,6 +143,8 @@ where
         }) {
             return Err(SnapshotError("a neighbour index is out of range".into()));
         }
+        let grid = snapshot.grid.into_owned();
+        let image_free_zone = super::image_free_zone(&boundary, &grid);
         Ok(Self {
             particles: snapshot.particles.into_owned(),
             counts: snapshot.counts.into_owned(),
@@ -153,7 +155,7 @@ where
             list_exit: vec![0.0; envelopes],
             neighbours: snapshot.neighbours.into_owned(),
             boundary,
-            grid: snapshot.grid.into_owned(),
+            grid,
             ids: snapshot.ids.into_owned(),
             queue: Q::with_capacity(n),
             config,
@@ -167,6 +169,7 @@ where
             counters: snapshot.counters,
             updates_at_sort: snapshot.updates_at_sort,
             skin: snapshot.skin,
+            image_free_zone,
             scratch: Vec::new(),
             pair_times: Vec::new(),
             mean_radius: snapshot.mean_radius,

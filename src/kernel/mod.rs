@@ -73,13 +73,12 @@ use crate::boundary::{Boundary, WallId};
 use crate::prefetch;
 use crate::queue::EventQueue;
 use crate::shape::{
-    bounding_sphere_wall_impulse, exit_ball_time, lane, lanes3, stays_in_ball, Collidable, Lanes,
+    bounding_sphere_wall_impulse, exit_ball_time, lanes3, stays_in_ball, Collidable, Lanes,
     MassRule, Vec3,
 };
 use crate::spatial::{CellGrid, MAX_LEVELS};
 use rand::Rng;
 use rand_distr::StandardNormal;
-use wide::CmpLt;
 
 /// A particle in delayed state: its free flight since its own last event, which only that
 /// particle's events change (the kernel never advances a particle that takes no part in an
@@ -292,6 +291,9 @@ pub struct Edmd<S: Collidable, B: Boundary, Q: EventQueue> {
     updates_at_sort: u64,
     /// Current neighbour-list skin (relative to the radius).
     skin: f64,
+    /// Lower and upper corners of the region where a list sphere needs no minimum image
+    /// ([`free_of_images`]); set with the grid.
+    image_free_zone: [Vec3; 2],
     /// Reused buffer for neighbour-list candidates, and for the partners of a barrier's pass.
     scratch: Vec<u32>,
     /// Reused buffer of [`Self::predict_pairs`]: the contact times found in a pass, with
@@ -426,6 +428,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             counters: EventCounts::default(),
             updates_at_sort: 0,
             skin,
+            image_free_zone: [Vec3::zeros(); 2],
             scratch: Vec::new(),
             pair_times: Vec::new(),
             mean_radius: 0.0,
@@ -661,6 +664,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             widths.push(widths[widths.len() - 1] * 0.5);
         }
         self.grid = CellGrid::with_levels(b.min(), b.max(), b.periodic(), &widths, n);
+        self.image_free_zone = image_free_zone(b, &self.grid);
         // The keys are dropped before `new_index` exists and the cells are looked up again
         // after the permutation, so the renumbering's scratch peaks at 12 bytes per particle
         // (memory target: ≤ 300 B per particle at N = 10⁶, BENCHMARKS.md).
@@ -714,48 +718,54 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.grid.cell_at(level, &self.list_spheres[i].centre)
     }
 
-    /// Particles whose neighbour-list spheres may overlap `i`'s (a superset), into `out`.
-    fn list_candidates(&self, i: usize, out: &mut Vec<u32>) {
-        out.clear();
+    /// Whether the separations between `i` and its neighbours (their centres and their list
+    /// spheres' centres) are their own minimum images ([`free_of_images`]): then a pass
+    /// over `i`'s list skips [`Boundary::minimum_image_lanes`].
+    #[inline]
+    fn pairs_free_of_images(&self, i: usize) -> bool {
+        let s = &self.list_spheres[i];
+        free_of_images(&s.centre, s.radius, &self.image_free_zone)
+    }
+
+    /// Calls `f` with every particle whose neighbour-list sphere may overlap `i`'s (a
+    /// superset, `i` included).
+    #[inline]
+    fn for_each_candidate(&self, i: usize, mut f: impl FnMut(usize)) {
         for level in 0..self.grid.levels() {
             // Spheres registered at `level` have radii ≤ half its cell width.
             let reach = self.list_spheres[i].radius + 0.5 * self.grid.level_width(level);
             self.grid
-                .for_each_within(level, &self.list_spheres[i].centre, reach, |j| {
-                    out.push(j as u32)
-                });
+                .for_each_within(level, &self.list_spheres[i].centre, reach, &mut f);
         }
     }
 
-    /// Appends to `out` the `candidates` other than `i` whose neighbour-list spheres overlap
-    /// `i`'s, and their envelopes (shapes with [`Collidable::ENVELOPES`]). The sphere test
-    /// runs on two candidates per step in packed lanes, with the numbers of the scalar test
-    /// `|c_i − c_j|² < (r_i + r_j)²` (a neighbour-list update tests some 60 candidates for
-    /// about 14 neighbours; BENCHMARKS.md, session 14).
-    fn overlapping_lists(&self, i: usize, candidates: &[u32], out: &mut NeighbourList) {
+    /// Appends to `out` the particles `j ≥ first`, `j ≠ i`, whose neighbour-list spheres
+    /// overlap `i`'s (`|c_i − c_j|² < (r_i + r_j)²`), and their envelopes (shapes with
+    /// [`Collidable::ENVELOPES`]), in the order of the cell walk. Each candidate is tested
+    /// as the walk meets it: a list update walks some 20 cells for about 70 candidates and
+    /// 13 neighbours, and gathering the candidates first, to test them two at a time in
+    /// packed lanes, cost twice the instructions (BENCHMARKS.md, session 16).
+    fn overlapping_lists(&self, i: usize, first: usize, out: &mut NeighbourList) {
         let sphere_i = &self.list_spheres[i];
-        for two in candidates.chunks(2) {
-            let s = [two[0], two[two.len() - 1]].map(|j| &self.list_spheres[j as usize]);
-            let mut d = lanes3(
-                &(sphere_i.centre - s[0].centre),
-                &(sphere_i.centre - s[1].centre),
-            );
-            self.boundary.minimum_image_lanes(&mut d);
-            let reach = Lanes::splat(sphere_i.radius) + Lanes::new([s[0].radius, s[1].radius]);
-            let apart = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-            let overlap = apart.cmp_lt(reach * reach).move_mask();
-            for (k, &j) in two.iter().enumerate() {
-                let keep = j as usize != i
-                    && overlap & (1 << k) != 0
-                    && (!S::ENVELOPES || {
-                        let (e_i, e_j) = (&self.envelopes[i], &self.envelopes[j as usize]);
-                        S::envelopes_overlap(e_i, e_j, &lane(&d, k))
-                    });
-                if keep {
-                    out.push(j);
-                }
+        let wraps = !self.pairs_free_of_images(i);
+        self.for_each_candidate(i, |j| {
+            let sphere_j = &self.list_spheres[j];
+            let mut d = sphere_i.centre - sphere_j.centre;
+            if wraps {
+                self.boundary.minimum_image(&mut d);
             }
-        }
+            let reach = sphere_i.radius + sphere_j.radius;
+            let keep = d.norm_squared() < reach * reach
+                && j >= first
+                && j != i
+                && (!S::ENVELOPES || {
+                    let (e_i, e_j) = (&self.envelopes[i], &self.envelopes[j]);
+                    S::envelopes_overlap(e_i, e_j, &d)
+                });
+            if keep {
+                out.push(j as u32);
+            }
+        });
     }
 
     /// Builds every neighbour list from the current spheres.
@@ -766,8 +776,9 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let mut candidates = std::mem::take(&mut self.scratch);
         let mut overlapping = NeighbourList::new();
         for i in 0..self.particles.len() {
-            self.list_candidates(i, &mut candidates);
             if self.tracks_images() {
+                candidates.clear();
+                self.for_each_candidate(i, |j| candidates.push(j as u32));
                 let mut own = std::mem::take(&mut self.neighbours[i]);
                 for &j in candidates.iter().filter(|&&j| j as usize >= i) {
                     self.link_images(i, j as usize, &mut own);
@@ -776,9 +787,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 continue;
             }
             // Each pair once, from its lower index.
-            candidates.retain(|&j| j as usize > i);
             overlapping.clear();
-            self.overlapping_lists(i, &candidates, &mut overlapping);
+            self.overlapping_lists(i, i + 1, &mut overlapping);
             for &j in &overlapping {
                 self.neighbours[i].push(j);
                 self.neighbours[j as usize].push(i as u32);
@@ -811,13 +821,11 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.grid.remove(i);
         let cell = self.home_cell(i);
         self.grid.insert(i, cell);
-        let mut candidates = std::mem::take(&mut self.scratch);
-        self.list_candidates(i, &mut candidates);
-        for &j in &candidates {
-            prefetch(&self.list_spheres[j as usize]);
-        }
         let mut new = NeighbourList::new();
         if self.tracks_images() {
+            let mut candidates = std::mem::take(&mut self.scratch);
+            candidates.clear();
+            self.for_each_candidate(i, |j| candidates.push(j as u32));
             for &j in &old {
                 // Every image of `i` leaves `j`'s list (`j` may be listed once per image).
                 self.neighbours[images::index(j)].retain(|x| images::index(*x) != i);
@@ -825,8 +833,9 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             for &j in &candidates {
                 self.link_images(i, j as usize, &mut new);
             }
+            self.scratch = candidates;
         } else {
-            self.overlapping_lists(i, &candidates, &mut new);
+            self.overlapping_lists(i, 0, &mut new);
             // Most partners stay: only the lists of those that leave or arrive are edited
             // (two scans of the short lists instead of a cache miss on every partner's
             // list; measured: BENCHMARKS.md, design decisions).
@@ -841,7 +850,6 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 self.neighbours[j as usize].push(i as u32);
             }
         }
-        self.scratch = candidates;
         self.neighbours[i] = new;
     }
 
@@ -972,6 +980,9 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         };
         let mut count = 0;
         if S::SCREENS_PAIRS {
+            // Most lists lie inside the box: no minimum image (a quarter of the screen's
+            // arithmetic; BENCHMARKS.md, session 16).
+            let wraps = !self.pairs_free_of_images(i);
             // Screen: the neighbours that may meet `i` within the horizon, two per step in
             // the two lanes of packed arithmetic (BENCHMARKS.md, session 14). An odd last
             // neighbour fills both lanes and counts once.
@@ -986,7 +997,9 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                     // The minimum image in lanes, without the scalar one's jumps.
                     let dr = pj.map(|p| pos_i - p.position_at(t));
                     let mut dr = lanes3(&dr[0], &dr[1]);
-                    self.boundary.minimum_image_lanes(&mut dr);
+                    if wraps {
+                        self.boundary.minimum_image_lanes(&mut dr);
+                    }
                     dr
                 };
                 let dv = lanes3(&(vel_i - pj[0].vel), &(vel_i - pj[1].vel));
@@ -1445,6 +1458,51 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     }
 }
 
+/// The zone of [`free_of_images`] for `boundary` and a `grid` whose coarsest cells hold every
+/// neighbour-list sphere: along each periodic axis of length `L ≥ 4w`, with `w` that width,
+/// `[min + w/2 + δ, max − w/2 − δ]` (`δ = 10⁻⁹ L` absorbs the rounding of the bounds and of
+/// the test), and nothing along a shorter one; every point along other axes.
+fn image_free_zone<B: Boundary>(boundary: &B, grid: &CellGrid) -> [Vec3; 2] {
+    let half = 0.5 * grid.min_width();
+    let (min, max, periodic) = (boundary.min(), boundary.max(), boundary.periodic());
+    let mut zone = [Vec3::repeat(f64::NEG_INFINITY), Vec3::repeat(f64::INFINITY)];
+    for k in (0..3).filter(|&k| periodic[k]) {
+        let len = max[k] - min[k];
+        if len >= 8.0 * half {
+            let inset = half + 1e-9 * len;
+            (zone[0][k], zone[1][k]) = (min[k] + inset, max[k] - inset);
+        } else {
+            (zone[0][k], zone[1][k]) = (f64::INFINITY, f64::NEG_INFINITY);
+        }
+    }
+    zone
+}
+
+/// Whether every separation a pass over the list of the list sphere `(centre, radius)`
+/// computes is its own minimum image, so that [`Boundary::minimum_image`] would return it
+/// unchanged: the sphere lies inside `zone` ([`image_free_zone`]).
+///
+/// Along a periodic axis of length `L ≥ 4w` (`w` the coarsest cell width, at least every
+/// list sphere's diameter, so every list radius `R_j ≤ w/2`): list centres are wrapped into
+/// `[min, max)` and the sphere's centre `c` lies at least `R + w/2 ≥ R + R_j` inside both
+/// faces, so the plain difference `c − c_j` to a centre whose sphere overlaps it (minimum
+/// image `< R + R_j`) is that minimum image, and one whose spheres do not overlap stays at
+/// least `R + R_j` apart either way (the list test's outcome is the same). A particle's
+/// centre stays inside its list sphere until its list update, so the centres of two listed
+/// particles differ by less than `2(R + R_j) ≤ 2w ≤ L/2`, which minimum image leaves as it
+/// is. (The same reasoning as the `nearboxedge` flag of Smallenburg's EDMD codes.)
+#[inline]
+fn free_of_images(centre: &Vec3, radius: f64, zone: &[Vec3; 2]) -> bool {
+    let r = Vec3::repeat(radius);
+    let (low, high) = (centre - r, centre + r);
+    (low.x >= zone[0].x)
+        & (low.y >= zone[0].y)
+        & (low.z >= zone[0].z)
+        & (high.x <= zone[1].x)
+        & (high.y <= zone[1].y)
+        & (high.z <= zone[1].z)
+}
+
 /// Reorders `v` so that `v_new[i] = v_old[order[i]]`, in place by following the cycles of
 /// the permutation (no second copy of `v`: the kernel's arrays are its bulk of memory).
 /// `visited` is scratch space of `v.len()` entries.
@@ -1555,6 +1613,93 @@ impl EventBudget {
 #[cfg(test)]
 mod tests {
     use super::permute_in_place;
+
+    /// The lemma of `free_of_images`, sampled: for a list sphere inside the zone, the plain
+    /// difference to any wrapped centre gives the list test's outcome, the plain difference to
+    /// an overlapping one is its minimum image, and so is the difference of two points inside
+    /// the two spheres (a partner's flight line is unwrapped from its sphere's centre). Near
+    /// a face, or in a box shorter than four cells, the zone excludes the sphere.
+    #[test]
+    fn separations_from_the_image_free_zone_are_their_own_minimum_images() {
+        use super::{free_of_images, image_free_zone};
+        use crate::boundary::{Boundary, PeriodicBox, WalledBox};
+        use crate::shape::Vec3;
+        use crate::spatial::CellGrid;
+        use rand::{Rng, SeedableRng};
+        use rand_xoshiro::Xoshiro256PlusPlus;
+
+        let boundary = PeriodicBox {
+            min: Vec3::new(-1.0, 2.0, 0.5),
+            len: Vec3::new(10.0, 12.0, 9.0),
+        };
+        let grid = CellGrid::new(boundary.min(), boundary.max(), [true; 3], 1.5, 100);
+        let zone = image_free_zone(&boundary, &grid);
+        let half = 0.5 * grid.min_width();
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(16);
+        let mut point_in = |rng: &mut Xoshiro256PlusPlus, r: f64| loop {
+            let v = Vec3::from_fn(|_, _| rng.gen_range(-r..=r));
+            if v.norm() < r {
+                return v;
+            }
+        };
+        let plain_is_image = |d: Vec3| {
+            let mut m = d;
+            boundary.minimum_image(&mut m);
+            m == d
+        };
+        let mut free = 0;
+        for _ in 0..200_000 {
+            let (ri, rj) = (rng.gen_range(0.01..=half), rng.gen_range(0.01..=half));
+            let mut ci = boundary.min + Vec3::from_fn(|k, _| rng.gen_range(0.0..boundary.len[k]));
+            boundary.wrap(&mut ci);
+            if !free_of_images(&ci, ri, &zone) {
+                continue;
+            }
+            free += 1;
+            // Any wrapped centre: the same list-test outcome either way.
+            let mut cj = boundary.min + Vec3::from_fn(|k, _| rng.gen_range(0.0..boundary.len[k]));
+            boundary.wrap(&mut cj);
+            let mut image = ci - cj;
+            boundary.minimum_image(&mut image);
+            let reach2 = (ri + rj).powi(2);
+            assert_eq!(
+                (ci - cj).norm_squared() < reach2,
+                image.norm_squared() < reach2
+            );
+            // An overlapping centre, and two points inside the spheres.
+            let mut cj = ci + point_in(&mut rng, ri + rj);
+            boundary.wrap(&mut cj);
+            assert!(plain_is_image(ci - cj), "{ci} {cj}");
+            let (xi, xj) = (ci + point_in(&mut rng, ri), cj + point_in(&mut rng, rj));
+            assert!(plain_is_image(xi - xj), "{xi} {xj}");
+        }
+        assert!(free > 50_000, "{free}");
+        // Near a face: outside the zone.
+        let near = boundary.min + Vec3::new(half + 0.2, 5.0, 4.0);
+        assert!(!free_of_images(&near, 0.25, &zone));
+        assert!(free_of_images(&(near + Vec3::x() * 0.1), 0.25, &zone));
+        // A periodic axis shorter than four cells: nowhere; a walled axis: everywhere.
+        let short = PeriodicBox {
+            min: Vec3::zeros(),
+            len: Vec3::new(5.9, 20.0, 20.0),
+        };
+        let grid = CellGrid::new(short.min(), short.max(), [true; 3], 1.5, 100);
+        let centre = Vec3::new(2.95, 10.0, 10.0);
+        assert!(!free_of_images(
+            &centre,
+            0.01,
+            &image_free_zone(&short, &grid)
+        ));
+        let walled = WalledBox {
+            min: Vec3::zeros(),
+            max: Vec3::new(5.9, 20.0, 20.0),
+            periodic: [false, true, true],
+        };
+        let grid = CellGrid::new(walled.min(), walled.max(), walled.periodic(), 1.5, 100);
+        let zone = image_free_zone(&walled, &grid);
+        assert!(free_of_images(&Vec3::new(0.0, 10.0, 10.0), 0.7, &zone));
+        assert!(!free_of_images(&Vec3::new(3.0, 0.5, 10.0), 0.1, &zone));
+    }
 
     /// At a barrier each pair's collision is predicted from its lower index only
     /// (`Partners::Above`): no pair sits in both particles' lists.

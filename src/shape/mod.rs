@@ -39,12 +39,6 @@ pub fn lanes3(a: &Vec3, b: &Vec3) -> Lanes3 {
     [0, 1, 2].map(|k| Lanes::new([a[k], b[k]]))
 }
 
-/// The three-vector in lane `k` of `v` (the inverse of [`lanes3`]).
-#[inline(always)]
-pub fn lane(v: &Lanes3, k: usize) -> Vec3 {
-    Vec3::from_fn(|c, _| v[c].to_array()[k])
-}
-
 /// How particle masses are assigned (paper 001, §5.3).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]

@@ -17,6 +17,7 @@
 //! body): insert, remove and move are `O(1)` and need no allocation.
 
 use crate::shape::Vec3;
+use smallvec::SmallVec;
 
 const NONE: u32 = u32::MAX;
 
@@ -251,41 +252,58 @@ impl CellGrid {
 
     /// Calls `f` with every body registered at `level` in a cell within `reach` of `p` (a
     /// superset of the bodies whose registered point is within `reach`).
+    #[inline]
     pub fn for_each_within(&self, level: usize, p: &Vec3, reach: f64, mut f: impl FnMut(usize)) {
         let lv = &self.levels[level];
-        // Per axis: the cells overlapping [p − reach, p + reach] (lo..=hi), wrapped on
-        // periodic axes; the whole axis when the range would wrap onto itself. Taking the
-        // exact overlap rather than ±ceil(reach/width) cells around p's cell scans about
-        // (2·reach/width + 1) cells per axis instead of (2·ceil(reach/width) + 1): 8 instead
-        // of 27 cells for a reach just over half a cell (measured: BENCHMARKS.md, concrete).
-        // Also returned: p's coordinate in cell widths, and whether the range is the whole
-        // axis (then no distance along it is known).
-        let range = |k: usize| -> (i64, i64, i64, f64, bool) {
-            let n = lv.dims[k] as i64;
-            let x = (p[k] - self.origin[k]) / lv.width[k];
-            let r = reach / lv.width[k];
-            let (lo, hi) = (floor_to_i64(x - r), floor_to_i64(x + r));
-            if self.periodic[k] {
-                if hi - lo + 1 >= n {
-                    (0, n - 1, n, x, true)
-                } else {
-                    (lo, hi, n, x, false)
+        let limit = (reach * (1.0 + 1e-9)).powi(2);
+        let along = |k: usize| self.axis_cells(lv, k, p[k], reach);
+        let (xs, ys, zs) = (along(0), along(1), along(2));
+        // The block of cells, z outermost; corners beyond `reach` skipped by their summed gaps.
+        for &(z, gz) in &zs {
+            for &(y, gy) in &ys {
+                let gyz = gz + gy;
+                if gyz > limit {
+                    continue;
                 }
-            } else {
-                (lo.clamp(0, n - 1), hi.clamp(0, n - 1), n, x, false)
+                let row = lv.first + lv.dims[0] * (y + lv.dims[1] * z);
+                for &(x, gx) in &xs {
+                    if gyz + gx > limit {
+                        continue;
+                    }
+                    for i in self.members(row + x) {
+                        f(i);
+                    }
+                }
             }
-        };
-        // Squared distance along axis k from p to cell c of its range: the corners of the
-        // block of cells lie beyond `reach` and are skipped (a quarter of the cells of a
-        // neighbour-list update; measured: BENCHMARKS.md, design decisions). The reach is
-        // widened by 1e-9 so that rounding never drops a cell that holds a body in reach. On a
-        // bounded axis the end cells also hold the points beyond the grid (`coords_at`
-        // clamps), so they reach out to infinity.
-        let gap2 = |k: usize, c: i64, (_, _, n, x, whole): (i64, i64, i64, f64, bool)| -> f64 {
-            if whole {
-                return 0.0;
-            }
-            let open = !self.periodic[k];
+        }
+    }
+
+    /// The cells of `lv` along axis `k` that overlap `[x − reach, x + reach]`, wrapped on a
+    /// periodic axis (the whole axis, each cell once, when the range would wrap onto itself;
+    /// clamped on a bounded one), each with the squared distance from `x` to the cell along
+    /// the axis (0 for a whole axis, where no distance is known). Taking the exact overlap
+    /// rather than ±⌈reach/width⌉ cells around `x`'s cell scans about (2·reach/width + 1)
+    /// cells per axis instead of (2·⌈reach/width⌉ + 1): 8 instead of 27 cells for a reach
+    /// just over half a cell (measured: BENCHMARKS.md, concrete). The distances let a query
+    /// skip the corners of its block, which lie beyond `reach` (a quarter of the cells of a
+    /// neighbour-list update; measured: BENCHMARKS.md, design decisions); computed once per
+    /// axis rather than once per cell (BENCHMARKS.md, session 16). On a bounded axis the end
+    /// cells also hold the points beyond the grid ([`Self::coords_at`] clamps), so they reach
+    /// out to infinity.
+    #[inline]
+    fn axis_cells(&self, lv: &Level, k: usize, x: f64, reach: f64) -> SmallVec<[(u32, f64); 4]> {
+        let n = lv.dims[k] as i64;
+        let x = (x - self.origin[k]) / lv.width[k];
+        let r = reach / lv.width[k];
+        let (mut lo, mut hi) = (floor_to_i64(x - r), floor_to_i64(x + r));
+        let open = !self.periodic[k];
+        if open {
+            (lo, hi) = (lo.clamp(0, n - 1), hi.clamp(0, n - 1));
+        } else if hi - lo + 1 >= n {
+            return (0..n as u32).map(|c| (c, 0.0)).collect();
+        }
+        let mut cells = SmallVec::new();
+        for c in lo..=hi {
             let lower = if open && c == 0 {
                 f64::NEG_INFINITY
             } else {
@@ -297,30 +315,9 @@ impl CellGrid {
                 c as f64 + 1.0
             };
             let g = (lower - x).max(x - upper).max(0.0) * lv.width[k];
-            g * g
-        };
-        let limit = (reach * (1.0 + 1e-9)).powi(2);
-        let (rx, ry, rz) = (range(0), range(1), range(2));
-        for z in rz.0..=rz.1 {
-            let gz = gap2(2, z, rz);
-            let z = wrap_cell(z, rz.2);
-            for y in ry.0..=ry.1 {
-                let gyz = gz + gap2(1, y, ry);
-                if gyz > limit {
-                    continue;
-                }
-                let y = wrap_cell(y, ry.2);
-                let row = lv.first + lv.dims[0] * (y + lv.dims[1] * z);
-                for x in rx.0..=rx.1 {
-                    if gyz + gap2(0, x, rx) > limit {
-                        continue;
-                    }
-                    for i in self.members(row + wrap_cell(x, rx.2)) {
-                        f(i);
-                    }
-                }
-            }
+            cells.push((wrap_cell(c, n), g * g));
         }
+        cells
     }
 }
 
