@@ -428,7 +428,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             counters: EventCounts::default(),
             updates_at_sort: 0,
             skin,
-            image_free_zone: [Vec3::zeros(); 2],
+            // Nowhere until the grid is built.
+            image_free_zone: [Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY)],
             scratch: Vec::new(),
             pair_times: Vec::new(),
             mean_radius: 0.0,
