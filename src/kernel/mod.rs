@@ -1637,7 +1637,7 @@ mod tests {
         let zone = image_free_zone(&boundary, &grid);
         let half = 0.5 * grid.min_width();
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(16);
-        let mut point_in = |rng: &mut Xoshiro256PlusPlus, r: f64| loop {
+        let point_in = |rng: &mut Xoshiro256PlusPlus, r: f64| loop {
             let v = Vec3::from_fn(|_, _| rng.gen_range(-r..=r));
             if v.norm() < r {
                 return v;
