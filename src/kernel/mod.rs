@@ -981,7 +981,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         };
         let mut count = 0;
         if S::SCREENS_PAIRS {
-            // Most lists lie inside the box and need no minimum image (64 % of them at 10⁴
+            // Most passes are over lists inside the box, which need no minimum image (64 % at 10⁴
             // particles, 82 % at 10⁵; BENCHMARKS.md, session 16).
             let wraps = !self.pairs_free_of_images(i);
             // Screen: the neighbours that may meet `i` within the horizon, two per step in
