@@ -981,8 +981,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         };
         let mut count = 0;
         if S::SCREENS_PAIRS {
-            // Most passes are over lists inside the box, which need no minimum image (64 % at 10⁴
-            // particles, 82 % at 10⁵; BENCHMARKS.md, session 16).
+            // Most passes are over lists inside the box, which need no minimum image (64 %
+            // at 10⁴ particles, 82 % at 10⁵; BENCHMARKS.md, session 16).
             let wraps = !self.pairs_free_of_images(i);
             // Screen: the neighbours that may meet `i` within the horizon, two per step in
             // the two lanes of packed arithmetic (BENCHMARKS.md, session 14). An odd last
