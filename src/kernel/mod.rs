@@ -740,6 +740,13 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         }
     }
 
+    /// [`Self::for_each_candidate`] into `out` (cleared first), for the image-tracking
+    /// list builds, which test each candidate's images.
+    fn list_candidates(&self, i: usize, out: &mut Vec<u32>) {
+        out.clear();
+        self.for_each_candidate(i, |j| out.push(j as u32));
+    }
+
     /// Appends to `out` the particles `j ≥ first`, `j ≠ i`, whose neighbour-list spheres
     /// overlap `i`'s (`|c_i − c_j|² < (r_i + r_j)²`), and their envelopes (shapes with
     /// [`Collidable::ENVELOPES`]), in the order of the cell walk. Each candidate is tested
@@ -778,8 +785,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let mut overlapping = NeighbourList::new();
         for i in 0..self.particles.len() {
             if self.tracks_images() {
-                candidates.clear();
-                self.for_each_candidate(i, |j| candidates.push(j as u32));
+                self.list_candidates(i, &mut candidates);
                 let mut own = std::mem::take(&mut self.neighbours[i]);
                 for &j in candidates.iter().filter(|&&j| j as usize >= i) {
                     self.link_images(i, j as usize, &mut own);
@@ -825,8 +831,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let mut new = NeighbourList::new();
         if self.tracks_images() {
             let mut candidates = std::mem::take(&mut self.scratch);
-            candidates.clear();
-            self.for_each_candidate(i, |j| candidates.push(j as u32));
+            self.list_candidates(i, &mut candidates);
             for &j in &old {
                 // Every image of `i` leaves `j`'s list (`j` may be listed once per image).
                 self.neighbours[images::index(j)].retain(|x| images::index(*x) != i);

@@ -255,6 +255,7 @@ impl CellGrid {
     #[inline]
     pub fn for_each_within(&self, level: usize, p: &Vec3, reach: f64, mut f: impl FnMut(usize)) {
         let lv = &self.levels[level];
+        // Widened by 1e-9 so that rounding never drops a cell that holds a body in reach.
         let limit = (reach * (1.0 + 1e-9)).powi(2);
         let along = |k: usize| self.axis_cells(lv, k, p[k], reach);
         let (xs, ys, zs) = (along(0), along(1), along(2));
