@@ -3,7 +3,8 @@
 //! against a brute-force march of the gap, its symmetry and its translation invariance.
 
 use densepack::shape::{
-    exit_ball_time, first_falling_root, lanes3, stays_in_ball, Collidable, Lanes, Sphere, Vec3,
+    exit_ball_time, first_falling_root, lanes3, stays_in_ball, Collidable, GapQuadratic, Lanes,
+    Sphere, Vec3,
 };
 use num_bigint::BigInt;
 use num_rational::BigRational;
@@ -141,8 +142,15 @@ fn pair() -> impl Strategy<Value = Pair> {
 }
 
 /// The kernel's screen of the pairs `(a, b)` in its two lanes, each lane `(b, dr, dv)` with
-/// its own horizon.
-fn screen(a: &Sphere, lanes: [(&Sphere, &Vec3, &Vec3); 2], t: f64, horizon: [f64; 2]) -> [bool; 2] {
+/// its own horizon; `grows` as the kernel would say it (`false` only if no rate is nonzero).
+/// Whether each may meet, and what the screen hands on to their contact times.
+fn screen(
+    a: &Sphere,
+    lanes: [(&Sphere, &Vec3, &Vec3); 2],
+    t: f64,
+    horizon: [f64; 2],
+    grows: bool,
+) -> ([bool; 2], GapQuadratic<Lanes>) {
     let [(b0, dr0, dv0), (b1, dr1, dv1)] = lanes;
     Sphere::may_collide(
         a,
@@ -153,6 +161,7 @@ fn screen(a: &Sphere, lanes: [(&Sphere, &Vec3, &Vec3); 2], t: f64, horizon: [f64
         &lanes3(dv0, dv1),
         t,
         Lanes::new(horizon),
+        grows,
     )
 }
 
@@ -317,10 +326,13 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(4000))]
 
     /// The kernel's screen (`Collidable::may_collide`, two pairs per call) never rejects a
-    /// pair that `collision_time` gives a time, with and without growth, also with the
+    /// pair that `collision_time` gives a time, with and without growth (and told of it
+    /// or not: the kernel says there is none only for intervals without), also with the
     /// horizon at the contact time itself or one rounding step either side of it (where the
-    /// screen's products and the time's division round differently); each lane answers for
-    /// its own pair, whatever the other holds.
+    /// screen's products and the time's division round differently), and for pairs touching
+    /// or overlapping by rounding; each lane answers for its own pair, whatever the other
+    /// holds. The time of a pair that passes, from what the screen handed on
+    /// (`Collidable::screened_time`), is `collision_time`'s, bit for bit.
     #[test]
     fn sphere_screen_never_rejects_a_contact(
         p in pair(),
@@ -328,10 +340,17 @@ proptest! {
         t0 in prop_oneof![Just(0.0), 0.0f64..2.0],
         window in prop_oneof![Just(WINDOW), 0.0f64..1.0],
         nudge in prop_oneof![Just(0.0), Just(1.0), Just(-1.0)],
+        touching in prop_oneof![Just(None), Just(Some(0)), Just(Some(1))],
+        squeeze in 0.999f64..1.0,
     ) {
         // Both lanes share the first sphere, as the kernel's lanes share particle `i`.
-        let dr_q = q.separation_with(&p.a);
-        let lanes = [(&p.b, &p.dr, &p.dv), (&q.b, &dr_q, &q.dv)];
+        let mut dr = [p.dr, q.separation_with(&p.a)];
+        let (b, dv) = ([&p.b, &q.b], [&p.dv, &q.dv]);
+        if let Some(k) = touching {
+            let sigma = p.a.radius(t0) + b[k].radius(t0);
+            dr[k] = dr[k].normalize() * (squeeze * sigma);
+        }
+        let lanes = [0, 1].map(|k| (b[k], &dr[k], dv[k]));
         let time = |(b, dr, dv): (&Sphere, &Vec3, &Vec3), horizon: f64| {
             Sphere::collision_time(&p.a, b, &(), &(), dr, dv, t0, horizon)
         };
@@ -344,11 +363,22 @@ proptest! {
                 window
             }
         });
-        let screened = screen(&p.a, lanes, t0, horizon);
-        for k in 0..2 {
-            let time = time(lanes[k], horizon[k]);
-            prop_assert!(screened[k] || time == f64::INFINITY,
-                "lane {k}: screen rejected a contact at {time} within {}", horizon[k]);
+        // `grows = true` is right for any rates; `false` only when no rate is nonzero.
+        let rates_zero = [p.a.g, p.b.g, q.b.g] == [0.0; 3];
+        for grows in [true, !rates_zero] {
+            let (passed, handed_on) = screen(&p.a, lanes, t0, horizon, grows);
+            for k in 0..2 {
+                let time = time(lanes[k], horizon[k]);
+                prop_assert!(passed[k] || time == f64::INFINITY,
+                    "lane {k} (grows {grows}): screen rejected a contact at {time} within {}",
+                    horizon[k]);
+                if passed[k] {
+                    let screened = Sphere::screened_time(&handed_on, k, horizon[k]);
+                    prop_assert_eq!(screened.to_bits(), time.to_bits(),
+                        "lane {} (grows {}): {} from the screen against {}",
+                        k, grows, screened, time);
+                }
+            }
         }
     }
 
@@ -364,7 +394,7 @@ proptest! {
         let (a, b, c) = (Sphere::new(p.a.r0), Sphere::new(p.b.r0), Sphere::new(q.b.r0));
         let dr_q = q.separation_with(&p.a);
         let lanes = [(&b, &p.dr, &p.dv), (&c, &dr_q, &q.dv)];
-        let screened = screen(&a, lanes, 0.0, window);
+        let (screened, _) = screen(&a, lanes, 0.0, window, false);
         for (k, (b, dr, dv)) in lanes.into_iter().enumerate() {
             let later = Sphere::collision_time(&a, b, &(), &(), dr, dv, 0.0, 2.001 * window[k]);
             prop_assert!(!screened[k] || later.is_finite(), "lane {k} passed a pair that misses 2T");

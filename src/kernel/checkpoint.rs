@@ -170,8 +170,11 @@ where
             updates_at_sort: snapshot.updates_at_sort,
             skin: snapshot.skin,
             image_free_zone,
+            // Right for any rates; the next interval knows better.
+            grows: true,
             scratch: Vec::new(),
             pair_times: Vec::new(),
+            screened: Vec::new(),
             mean_radius: snapshot.mean_radius,
             // Set by the stage the kernel continues (`Edmd::continue_stage`).
             wall_growth: 1.0,

@@ -221,6 +221,10 @@ pub(crate) type NeighbourList = smallvec::SmallVec<[u32; NEIGHBOURS_INLINE]>;
 /// skin of 0.4 was as fast as any (BENCHMARKS.md, tuning).
 pub const MAX_SKIN: f64 = 0.5;
 
+/// Neighbours screened per block of a prediction pass: one bit each in a `u64` marks those
+/// that pass the screen ([`Edmd::predict_pairs`]).
+const SCREEN_BLOCK: usize = 64;
+
 /// A neighbour-list sphere (see the module docs): the centre and the radius share one
 /// 32-byte record, so the list updates, which test a sphere against some fifty candidates,
 /// and the list-exit predictions load one cache line per sphere rather than two.
@@ -294,11 +298,19 @@ pub struct Edmd<S: Collidable, B: Boundary, Q: EventQueue> {
     /// Lower and upper corners of the region where a list sphere needs no minimum image
     /// ([`free_of_images`]); set with the grid.
     image_free_zone: [Vec3; 2],
+    /// Whether any particle grows in the current barrier interval (set by
+    /// [`Self::begin_interval`]; growth rates change only between intervals): with `false`
+    /// the prediction pass's screen leaves the growth terms out ([`Collidable::may_collide`]).
+    /// `true` is right for any rates.
+    grows: bool,
     /// Reused buffer for neighbour-list candidates, and for the partners of a barrier's pass.
     scratch: Vec<u32>,
     /// Reused buffer of [`Self::predict_pairs`]: the contact times found in a pass, with
     /// the neighbour's position in the list.
     pair_times: Vec<(f64, u32)>,
+    /// Reused buffer of [`Self::predict_pairs`]: what the screen hands on for each step of
+    /// two neighbours ([`Collidable::Screened`]).
+    screened: Vec<S::Screened>,
     /// Mean skin length ([`Collidable::skin_length`]; the bounding radius for spheres) at
     /// the start of the current barrier interval.
     mean_radius: f64,
@@ -430,8 +442,10 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             skin,
             // Nowhere until the grid is built.
             image_free_zone: [Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY)],
+            grows: true,
             scratch: Vec::new(),
             pair_times: Vec::new(),
+            screened: Vec::new(),
             mean_radius: 0.0,
             wall_growth: 1.0,
             stage_clock: 0.0,
@@ -877,6 +891,10 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.interval = interval;
         self.barrier_time = interval;
         self.update_mean_radius();
+        self.grows = self
+            .particles
+            .iter()
+            .any(|p| p.shape.bounding_growth_rate() != 0.0);
         let needed = self.needed_cell_width(interval);
         let n = self.particles.len();
         if self.grid.min_width() < needed {
@@ -914,13 +932,16 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     ///    horizon, without the square root and division of a contact time: in the φ = 0.5
     ///    fluid 84 % of the neighbours recede, miss or meet after the barrier
     ///    (BENCHMARKS.md, session 11). Two neighbours per step, one per lane of packed
-    ///    arithmetic ([`Lanes`]; BENCHMARKS.md, session 14);
-    /// 2. contact times ([`Collidable::collision_time`], `+∞` for none) for those only;
-    ///
-    ///    both passes append to a buffer whose end moves past an entry only if it is kept:
-    ///    for spheres nothing in them branches on a pair's outcome, where acting on each
-    ///    prediction at once mispredicted about one branch per neighbour (BENCHMARKS.md,
-    ///    design decisions);
+    ///    arithmetic ([`Lanes`]; BENCHMARKS.md, session 14); a bit per neighbour in a word
+    ///    per block of [`SCREEN_BLOCK`], and what the screen hands on per step
+    ///    ([`Collidable::Screened`]: for spheres the lanes' gap quadratics);
+    /// 2. contact times for the marked ones only, from what the screen handed on
+    ///    ([`Collidable::screened_time`]; BENCHMARKS.md, session 17), or for shapes without
+    ///    a screen for every partner ([`Collidable::collision_time`]), `+∞` for none,
+    ///    appended to a buffer whose end moves past an entry only if it is kept: for spheres
+    ///    nothing in the passes branches on a pair's outcome but the loop over the marked
+    ///    ones, where acting on each prediction at once mispredicted about one branch per
+    ///    neighbour (BENCHMARKS.md, design decisions);
     /// 3. the few contacts found are sorted (earliest first, the first neighbour on ties) and
     ///    the earliest [`LOCAL_CAPACITY`] go into the list — the events that pushing every
     ///    prediction in neighbour order would keep, up to the order of times that round to
@@ -929,6 +950,19 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// The caller has asked for the partners' states first ([`Self::prefetch_partners`]).
     #[inline]
     fn predict_pairs(&mut self, i: usize, partners: Partners) {
+        // One pass for intervals with growth and one without, each compiled with its own
+        // screen: 1 % fewer instructions in the fluid than one pass that asks
+        // (BENCHMARKS.md, session 17).
+        if self.grows {
+            self.predict_pairs_as::<true>(i, partners);
+        } else {
+            self.predict_pairs_as::<false>(i, partners);
+        }
+    }
+
+    /// [`Self::predict_pairs`] in an interval where particles grow (`GROWS`) or do not.
+    #[inline]
+    fn predict_pairs_as<const GROWS: bool>(&mut self, i: usize, partners: Partners) {
         let t = self.time;
         let max_tau = self.barrier_time - t;
         // Refreshed by the caller ([`Self::refresh_list_exit`]).
@@ -956,6 +990,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         // list to drop one entry costs more (BENCHMARKS.md, session 15).
         let mut above = std::mem::take(&mut self.scratch);
         let mut found = std::mem::take(&mut self.pair_times);
+        let mut screened = std::mem::take(&mut self.screened);
         let neighbours = if matches!(partners, Partners::Above) {
             above.clear();
             let listed = self.neighbours[i].iter();
@@ -967,6 +1002,9 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         // One slot more than neighbours: an odd last step writes one past them.
         if found.len() <= neighbours.len() {
             found.resize(neighbours.len() + 1, (f64::INFINITY, 0));
+        }
+        if S::SCREENS_PAIRS && screened.len() < SCREEN_BLOCK / 2 {
+            screened.resize(SCREEN_BLOCK / 2, S::Screened::default());
         }
         // The horizon of the pair of `i` and `j`.
         let horizon_with = |j: usize| {
@@ -990,62 +1028,71 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             // at 10⁴ particles, 82 % at 10⁵; BENCHMARKS.md, session 16).
             let wraps = !self.pairs_free_of_images(i);
             // Screen: the neighbours that may meet `i` within the horizon, two per step in
-            // the two lanes of packed arithmetic (BENCHMARKS.md, session 14). An odd last
-            // neighbour fills both lanes and counts once.
-            for (step, two) in neighbours.chunks(2).enumerate() {
-                let entries = [two[0], two[two.len() - 1]];
-                let j = entries.map(|e| self.partner_index(e));
-                let pj = j.map(|j| &self.particles[j]);
-                let dr = if self.tracks_images() {
-                    let dr = entries.map(|e| pair(e).1);
-                    lanes3(&dr[0], &dr[1])
-                } else {
-                    // The minimum image in lanes, without the scalar one's jumps.
-                    let dr = pj.map(|p| pos_i - p.position_at(t));
-                    let mut dr = lanes3(&dr[0], &dr[1]);
-                    if wraps {
-                        self.boundary.minimum_image_lanes(&mut dr);
-                    }
-                    dr
-                };
-                let dv = lanes3(&(vel_i - pj[0].vel), &(vel_i - pj[1].vel));
-                let spin_j = pj.map(|p| p.spin_at(t));
-                let horizon = j.map(horizon_with);
-                let pass = S::may_collide(
-                    &shape_i,
-                    [&pj[0].shape, &pj[1].shape],
-                    &spin_i,
-                    [&spin_j[0], &spin_j[1]],
-                    &dr,
-                    &dv,
-                    t,
-                    Lanes::new(horizon),
-                );
-                // Kept by moving the end past it, not by a branch.
-                found[count].1 = 2 * step as u32;
-                count += usize::from(pass[0]);
-                found[count].1 = 2 * step as u32 + 1;
-                count += usize::from(pass[1] & (two.len() == 2));
+            // the two lanes of packed arithmetic (BENCHMARKS.md, session 14), a block of up
+            // to 64 at a time: a bit per neighbour marks those that pass, and what the screen
+            // hands on is kept per step. Then the times of those that pass, keeping the ones
+            // that meet and are not left out. Nothing in either part branches on a pair's
+            // outcome but the loop over the marked ones (BENCHMARKS.md, session 17).
+            for (block, in_block) in neighbours.chunks(SCREEN_BLOCK).enumerate() {
+                let mut passed = 0u64;
+                for (step, two) in in_block.chunks(2).enumerate() {
+                    // An odd last neighbour fills both lanes; its second lane is cut below.
+                    let entries = [two[0], two[two.len() - 1]];
+                    let j = entries.map(|e| self.partner_index(e));
+                    let pj = j.map(|j| &self.particles[j]);
+                    let dr = if self.tracks_images() {
+                        let dr = entries.map(|e| pair(e).1);
+                        lanes3(&dr[0], &dr[1])
+                    } else {
+                        // The minimum image in lanes, without the scalar one's jumps.
+                        let dr = pj.map(|p| pos_i - p.position_at(t));
+                        let mut dr = lanes3(&dr[0], &dr[1]);
+                        if wraps {
+                            self.boundary.minimum_image_lanes(&mut dr);
+                        }
+                        dr
+                    };
+                    let dv = lanes3(&(vel_i - pj[0].vel), &(vel_i - pj[1].vel));
+                    let spin_j = pj.map(|p| p.spin_at(t));
+                    let horizon = j.map(horizon_with);
+                    let (pass, handed_on) = S::may_collide(
+                        &shape_i,
+                        [&pj[0].shape, &pj[1].shape],
+                        &spin_i,
+                        [&spin_j[0], &spin_j[1]],
+                        &dr,
+                        &dv,
+                        t,
+                        Lanes::new(horizon),
+                        GROWS,
+                    );
+                    screened[step] = handed_on;
+                    passed |= (u64::from(pass[0]) | u64::from(pass[1]) << 1) << (2 * step);
+                }
+                passed &= u64::MAX >> (SCREEN_BLOCK - in_block.len());
+                while passed != 0 {
+                    let k = passed.trailing_zeros() as usize;
+                    passed &= passed - 1;
+                    let j = self.partner_index(in_block[k]);
+                    let tau = S::screened_time(&screened[k / 2], k % 2, horizon_with(j));
+                    // Kept by moving the end past it, not by a branch.
+                    found[count] = (tau, (block * SCREEN_BLOCK + k) as u32);
+                    count += usize::from((tau < f64::INFINITY) & !skip(j));
+                }
             }
         } else {
-            // Every partner not left out (for shapes without a screen a contact time is
-            // dear).
+            // A contact time for each partner not left out (for shapes without a screen a
+            // contact time is dear).
             for (k, &entry) in neighbours.iter().enumerate() {
-                found[count].1 = k as u32;
-                count += usize::from(!skip(self.partner_index(entry)));
+                if skip(self.partner_index(entry)) {
+                    continue;
+                }
+                let (pj, dr, dv, spin_j, horizon) = pair(entry);
+                let tau =
+                    S::collision_time(&shape_i, &pj.shape, &spin_i, &spin_j, &dr, &dv, t, horizon);
+                found[count] = (tau, k as u32);
+                count += usize::from(tau < f64::INFINITY);
             }
-        }
-        // Times of those that passed, keeping the ones that meet and are not left out.
-        let screened = count;
-        count = 0;
-        for m in 0..screened {
-            let k = found[m].1;
-            let entry = neighbours[k as usize];
-            let (pj, dr, dv, spin_j, horizon) = pair(entry);
-            let tau =
-                S::collision_time(&shape_i, &pj.shape, &spin_i, &spin_j, &dr, &dv, t, horizon);
-            found[count] = (tau, k);
-            count += usize::from((tau < f64::INFINITY) & !skip(self.partner_index(entry)));
         }
         let found_now = &mut found[..count];
         if count > LOCAL_CAPACITY {
@@ -1068,6 +1115,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         }
         self.local.set(i, list);
         self.pair_times = found;
+        self.screened = screened;
         self.scratch = above;
     }
 

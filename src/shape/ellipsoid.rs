@@ -1020,6 +1020,7 @@ impl Collidable for Ellipsoid {
     const PERIODIC_IMAGES: bool = true;
     type Envelope = Envelope;
     const ENVELOPES: bool = true;
+    type Screened = ();
 
     #[inline]
     fn envelope(&self, spin: &Spin, t: f64, skin: f64) -> Envelope {

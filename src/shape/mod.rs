@@ -19,7 +19,7 @@ pub use ellipsoid::{
     predict_ellipsoid_pair, prediction_failures, support_curvature_bound, Ellipsoid, Envelope,
     Predictor, Spin, CONTACT_TOLERANCE, MAX_CONTACT_TOLERANCE, MAX_STEPS,
 };
-pub use sphere::{predict_sphere_sphere, Sphere};
+pub use sphere::{predict_sphere_sphere, GapQuadratic, Sphere};
 
 /// Three-vector of `f64`, the only vector type of the kernel.
 pub type Vec3 = nalgebra::Vector3<f64>;
@@ -224,17 +224,24 @@ pub trait Collidable: Clone + Send + Sync + 'static {
         t: f64,
         max_tau: f64,
     ) -> f64;
+    /// What the screen of two pairs ([`Collidable::may_collide`]) hands on to the contact
+    /// times of those that pass ([`Collidable::screened_time`]): the numbers of both pairs
+    /// that their times need, computed once (`()` for shapes that do not screen).
+    type Screened: Copy + Default;
     /// Whether the shape screens pairs ([`Collidable::may_collide`] is more than the
     /// default): without, the kernel skips the screen and its pass, and a pair's relative
     /// state (for rotating shapes not cheap) is computed once.
     const SCREENS_PAIRS: bool = false;
     /// Whether `a` and `b[k]` may touch within `[0, max_tau[k]]` (the arguments of
     /// [`Self::collision_time`], two pairs at once: pair `k` in lane `k` of `dr`, `dv` and
-    /// `max_tau`): a cheap screen that the kernel's prediction pass runs on every
-    /// neighbour, asking [`Self::collision_time`] only for those that pass. It may pass a
+    /// `max_tau`), and what their contact times then need: a cheap screen that the
+    /// kernel's prediction pass runs on every neighbour, asking [`Self::screened_time`]
+    /// only for those that pass. It may pass a
     /// pair that then does not meet, but must never reject one that
     /// [`Self::collision_time`] gives a time, and each lane's answer depends on that lane
-    /// alone. The default passes every pair (and is not called unless
+    /// alone. `grows`: whether any particle may grow; `false` promises that every growth
+    /// rate is zero (the kernel knows it for each barrier interval), so that the screen can
+    /// leave the growth terms out. The default passes every pair (and is not called unless
     /// [`Collidable::SCREENS_PAIRS`]).
     #[allow(clippy::too_many_arguments)]
     #[inline]
@@ -247,8 +254,16 @@ pub trait Collidable: Clone + Send + Sync + 'static {
         _dv: &Lanes3,
         _t: f64,
         _max_tau: Lanes,
-    ) -> [bool; 2] {
-        [true; 2]
+        _grows: bool,
+    ) -> ([bool; 2], Self::Screened) {
+        ([true; 2], Self::Screened::default())
+    }
+    /// The contact time of the pair in lane `lane` of a screen that it passed, from what
+    /// [`Collidable::may_collide`] handed on, with the same horizon: bit for bit
+    /// [`Self::collision_time`] of the pair. Shapes with [`Collidable::SCREENS_PAIRS`] only.
+    #[inline]
+    fn screened_time(_screened: &Self::Screened, _lane: usize, _max_tau: f64) -> f64 {
+        unreachable!("only shapes with SCREENS_PAIRS hand on screened pairs")
     }
     /// Resolves a contact at time `t`: returns the linear impulse on `a` (the impulse on `b`
     /// is its negative) for masses `ma`, `mb`, and applies the angular part to `sa`, `sb`.

@@ -2,7 +2,7 @@
 
 use super::{first_falling_root, Collidable, Growth, Lanes, Lanes3, Vec3};
 use std::f64::consts::PI;
-use wide::{CmpEq, CmpGe, CmpLe, CmpLt};
+use wide::{CmpGe, CmpLe, CmpLt};
 
 /// A sphere of radius `r(t) = r0 + g·t` (paper 001, Eq. 20). Rotation-free: a sphere-only
 /// scene carries no orientation state at all.
@@ -67,38 +67,68 @@ where
     (a, b, dot(dr, dr) - sigma * sigma)
 }
 
-/// [`predict_sphere_sphere`] as a time, `+∞` for no contact within `[0, max_tau]`.
-///
-/// For a pair apart (`c > 0`, the common case) both roots in use are the same number
-/// `τ = c / (√(b² − ac) − b) = (b + √(b² − ac)) / (−a)`: the first form is free of
-/// cancellation for an approaching pair (`b < 0`), the second for a receding one, which meets
-/// only when growth closes the gap (`a < 0`). Without growth (`G = 0`, so `a ≥ 0`) only
-/// approaching pairs meet and the first form is the only one: the time is computed for every
-/// pair and kept or replaced by `+∞` by a select, not a jump ([`pick`]). Whether a neighbour
-/// approaches is a coin flip, and a mispredicted jump per neighbour cost more than the
-/// arithmetic (BENCHMARKS.md, design decisions). With growth the form is picked by the sign
-/// of `b`, so one division serves both.
+/// [`predict_sphere_sphere`] as a time, `+∞` for no contact within `[0, max_tau]`: the
+/// first contact of [`gap_coefficients`]'s quadratic ([`GapQuadratic::contact_time`]).
 #[inline]
 pub fn sphere_contact_time(sigma: f64, growth: f64, dr: &Vec3, dv: &Vec3, max_tau: f64) -> f64 {
     let (a, b, c) = gap_coefficients(sigma, Some(growth), (*dr).into(), (*dv).into());
-    if c <= 0.0 {
-        // Touching or overlapping by rounding: rare, handled by the general rule.
-        return first_falling_root(a, b, c)
-            .filter(|&tau| tau <= max_tau)
-            .unwrap_or(f64::INFINITY);
+    GapQuadratic { a, b, c }.contact_time(max_tau)
+}
+
+/// The gap function `f(τ) = a τ² + 2 b τ + c` of a pair of growing spheres (paper 001,
+/// Eq. 22; [`gap_coefficients`]), of one pair (`T = f64`) or of two, one per lane
+/// (`T = Lanes`): the screen of two pairs ([`sphere_contact_possible`]) hands its lanes on to
+/// the contact times of those that pass ([`Collidable::screened_time`]), which then need no
+/// second look at the pair (BENCHMARKS.md, session 17).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct GapQuadratic<T = f64> {
+    /// `dv² − G²` (length²/time²).
+    pub a: T,
+    /// `dr·dv − σ G` (length²/time).
+    pub b: T,
+    /// `dr² − σ²` (length²).
+    pub c: T,
+}
+
+impl GapQuadratic<Lanes> {
+    /// The quadratic of lane `k`.
+    #[inline]
+    pub fn lane(&self, k: usize) -> GapQuadratic {
+        GapQuadratic {
+            a: self.a.as_array_ref()[k],
+            b: self.b.as_array_ref()[k],
+            c: self.c.as_array_ref()[k],
+        }
     }
-    let disc = b * b - a * c;
-    let root = disc.max(0.0).sqrt();
-    let approaching = b < 0.0;
-    if growth == 0.0 {
-        // The same for every pair of a scene, so this branch is always predicted.
-        let tau = c / (root - b);
-        let valid = (disc >= 0.0) & approaching & (tau <= max_tau);
-        return pick(valid, tau, f64::INFINITY);
+}
+
+impl GapQuadratic {
+    /// The first time `τ ∈ [0, max_tau]` at which the gap closes, `+∞` if none.
+    ///
+    /// For a pair apart (`c > 0`, the common case) both roots in use are the same number
+    /// `τ = c / (√(b² − ac) − b) = (b + √(b² − ac)) / (−a)`: the first form is free of
+    /// cancellation for an approaching pair (`b < 0`), the second for a receding one, which
+    /// meets only when growth closes the gap (`a < 0`; without growth `a = dv² ≥ 0`, so only
+    /// approaching pairs meet, by the first form). The form is picked by the sign of `b`, so
+    /// one division serves both, and the time is kept or replaced by `+∞` by a select, not a
+    /// jump ([`pick`]): whether a neighbour approaches is a coin flip, and a mispredicted
+    /// jump per neighbour cost more than the arithmetic (BENCHMARKS.md, design decisions).
+    #[inline]
+    pub fn contact_time(&self, max_tau: f64) -> f64 {
+        let Self { a, b, c } = *self;
+        if c <= 0.0 {
+            // Touching or overlapping by rounding: rare, handled by the general rule.
+            return first_falling_root(a, b, c)
+                .filter(|&tau| tau <= max_tau)
+                .unwrap_or(f64::INFINITY);
+        }
+        let disc = b * b - a * c;
+        let root = disc.max(0.0).sqrt();
+        let approaching = b < 0.0;
+        let tau = pick(approaching, c, b + root) / pick(approaching, root - b, -a);
+        let valid = (disc >= 0.0) & (approaching | (a < 0.0)) & (tau <= max_tau);
+        pick(valid, tau, f64::INFINITY)
     }
-    let tau = pick(approaching, c, b + root) / pick(approaching, root - b, -a);
-    let valid = (disc >= 0.0) & (approaching | (a < 0.0)) & (tau <= max_tau);
-    pick(valid, tau, f64::INFINITY)
 }
 
 /// Whether two growing spheres may touch within `[0, max_tau]`, for two pairs at once (pair
@@ -108,9 +138,13 @@ pub fn sphere_contact_time(sigma: f64, growth: f64, dr: &Vec3, dv: &Vec3, max_ta
 /// fluid do not need: they recede, miss or meet after the barrier (BENCHMARKS.md, session
 /// 11). It never rejects a pair that [`sphere_contact_time`] gives a time, so the kernel's
 /// predictions are those without it. Two lanes because the kernel's pass screens two
-/// neighbours per step (BENCHMARKS.md, session 14).
+/// neighbours per step (BENCHMARKS.md, session 14). The lanes' quadratics come along: the
+/// time of a pair that passes is its lane's [`GapQuadratic::contact_time`].
 ///
-/// With the gap function `f(τ) = a τ² + 2 b τ + c` (apart: `c > 0`) and the horizon `T`:
+/// `growth` holds the sums of the pairs' growth rates, `None` when no particle grows (the
+/// kernel knows it for each barrier interval, and leaves the rates unread: BENCHMARKS.md,
+/// session 17). With the gap function `f(τ) = a τ² + 2 b τ + c` (apart: `c > 0`) and the
+/// horizon `T`:
 /// - without growth (`a ≥ 0`), `f(τ) ≥ c + 2 b τ ≥ c + 2 b T` on `[0, T]` for an
 ///   approaching pair (`b < 0`), so a contact within the horizon needs `c + 2 b T ≤ 0`
 ///   besides `b < 0` and `b² − ac ≥ 0`. This passes the pairs that meet by `2T` at worst
@@ -128,22 +162,20 @@ pub fn sphere_contact_time(sigma: f64, growth: f64, dr: &Vec3, dv: &Vec3, max_ta
 #[inline]
 pub fn sphere_contact_possible(
     sigma: Lanes,
-    growth: Lanes,
+    growth: Option<Lanes>,
     dr: &Lanes3,
     dv: &Lanes3,
     max_tau: Lanes,
-) -> [bool; 2] {
+) -> ([bool; 2], GapQuadratic<Lanes>) {
     let zero = Lanes::ZERO;
-    // The same for every pair of a scene, so this branch is always predicted.
-    let without = growth.cmp_eq(zero).all();
-    let (a, b, c) = gap_coefficients(sigma, (!without).then_some(growth), *dr, *dv);
+    let (a, b, c) = gap_coefficients(sigma, growth, *dr, *dv);
     let disc = b * b - a * c;
     let horizon = max_tau * Lanes::splat(1.0 + 1e-9);
     let touching = c.cmp_le(zero);
     let approaching = b.cmp_lt(zero) & disc.cmp_ge(zero);
-    // A lane without growth in a step with growth takes the exact test, which holds for
-    // any `a`: both tests pass every pair with a time.
-    let pass = if without {
+    // A lane without growth among growing ones takes the exact test, which holds for any
+    // `a`: both tests pass every pair with a time.
+    let pass = if growth.is_none() {
         touching | (approaching & (c + Lanes::splat(2.0) * b * horizon).cmp_le(zero))
     } else {
         let x = c + horizon * b;
@@ -155,7 +187,7 @@ pub fn sphere_contact_possible(
         touching | approaching_in_time | receding_in_time
     };
     let bits = pass.move_mask();
-    [bits & 1 != 0, bits & 2 != 0]
+    ([bits & 1 != 0, bits & 2 != 0], GapQuadratic { a, b, c })
 }
 
 /// `if condition { x } else { y }`, marked unpredictable so that the compiler emits a select
@@ -220,6 +252,7 @@ impl Collidable for Sphere {
         sphere_contact_time(a.radius(t) + b.radius(t), a.g + b.g, dr, dv, max_tau)
     }
 
+    type Screened = GapQuadratic<Lanes>;
     const SCREENS_PAIRS: bool = true;
 
     #[inline]
@@ -232,10 +265,21 @@ impl Collidable for Sphere {
         dv: &Lanes3,
         t: f64,
         max_tau: Lanes,
-    ) -> [bool; 2] {
+        grows: bool,
+    ) -> ([bool; 2], GapQuadratic<Lanes>) {
+        // Without growth `r(t) = r0` exactly (`r0 + 0·t`), and the rates are not loaded.
+        if !grows {
+            let sigma = Lanes::splat(a.r0) + Lanes::new([b[0].r0, b[1].r0]);
+            return sphere_contact_possible(sigma, None, dr, dv, max_tau);
+        }
         let sigma = Lanes::splat(a.radius(t)) + Lanes::new([b[0].radius(t), b[1].radius(t)]);
         let growth = Lanes::splat(a.g) + Lanes::new([b[0].g, b[1].g]);
-        sphere_contact_possible(sigma, growth, dr, dv, max_tau)
+        sphere_contact_possible(sigma, Some(growth), dr, dv, max_tau)
+    }
+
+    #[inline]
+    fn screened_time(gaps: &GapQuadratic<Lanes>, lane: usize, max_tau: f64) -> f64 {
+        gaps.lane(lane).contact_time(max_tau)
     }
 
     #[inline]
