@@ -951,8 +951,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     #[inline]
     fn predict_pairs(&mut self, i: usize, partners: Partners) {
         // One pass for intervals with growth and one without, each compiled with its own
-        // screen: 1 % fewer instructions in the fluid than one pass that asks
-        // (BENCHMARKS.md, session 17).
+        // screen (a pass that asked a flag in each step ran 0.9 % more instructions in the
+        // fluid; BENCHMARKS.md, session 17).
         if self.grows {
             self.predict_pairs_as::<true>(i, partners);
         } else {

@@ -236,13 +236,12 @@ pub trait Collidable: Clone + Send + Sync + 'static {
     /// [`Self::collision_time`], two pairs at once: pair `k` in lane `k` of `dr`, `dv` and
     /// `max_tau`), and what their contact times then need: a cheap screen that the
     /// kernel's prediction pass runs on every neighbour, asking [`Self::screened_time`]
-    /// only for those that pass. It may pass a
-    /// pair that then does not meet, but must never reject one that
-    /// [`Self::collision_time`] gives a time, and each lane's answer depends on that lane
-    /// alone. `grows`: whether any particle may grow; `false` promises that every growth
-    /// rate is zero (the kernel knows it for each barrier interval), so that the screen can
-    /// leave the growth terms out. The default passes every pair (and is not called unless
-    /// [`Collidable::SCREENS_PAIRS`]).
+    /// only for those that pass. It may pass a pair that then does not meet, but must never
+    /// reject one that [`Self::collision_time`] gives a time, and each lane's answer depends
+    /// on that lane alone. `grows`: whether any particle may grow; `false` promises that
+    /// every growth rate is zero (the kernel knows it for each barrier interval), so that
+    /// the screen can leave the growth terms out. The default passes every pair (and is not
+    /// called unless [`Collidable::SCREENS_PAIRS`]).
     #[allow(clippy::too_many_arguments)]
     #[inline]
     fn may_collide(
