@@ -986,7 +986,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let skip = move |j: usize| ((j == except) | (j < first)) & !(own_images && j == i);
         // A barrier's pass (`Above`) leaves out half the neighbours: they are dropped before
         // the screen rather than screened for nothing. The one partner a collision's second
-        // pass leaves out (`AllBut`) is dropped in the contact-time pass instead: copying the
+        // pass leaves out (`AllBut`) is dropped with the contact times instead: copying the
         // list to drop one entry costs more (BENCHMARKS.md, session 15).
         let mut above = std::mem::take(&mut self.scratch);
         let mut found = std::mem::take(&mut self.pair_times);

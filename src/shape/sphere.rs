@@ -68,7 +68,7 @@ where
 }
 
 /// [`predict_sphere_sphere`] as a time, `+∞` for no contact within `[0, max_tau]`: the
-/// first contact of [`gap_coefficients`]'s quadratic ([`GapQuadratic::contact_time`]).
+/// first contact of the pair's gap quadratic ([`GapQuadratic::contact_time`]).
 #[inline]
 pub fn sphere_contact_time(sigma: f64, growth: f64, dr: &Vec3, dv: &Vec3, max_tau: f64) -> f64 {
     let (a, b, c) = gap_coefficients(sigma, Some(growth), (*dr).into(), (*dv).into());
@@ -76,8 +76,8 @@ pub fn sphere_contact_time(sigma: f64, growth: f64, dr: &Vec3, dv: &Vec3, max_ta
 }
 
 /// The gap function `f(τ) = a τ² + 2 b τ + c` of a pair of growing spheres (paper 001,
-/// Eq. 22; [`gap_coefficients`]), of one pair (`T = f64`) or of two, one per lane
-/// (`T = Lanes`): the screen of two pairs ([`sphere_contact_possible`]) hands its lanes on to
+/// Eq. 22), of one pair (`T = f64`) or of two, one per lane
+/// (`T = Lanes`): the screen of two pairs (`sphere_contact_possible`) hands its lanes on to
 /// the contact times of those that pass ([`Collidable::screened_time`]), which then need no
 /// second look at the pair (BENCHMARKS.md, session 17).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -111,7 +111,7 @@ impl GapQuadratic {
     /// meets only when growth closes the gap (`a < 0`; without growth `a = dv² ≥ 0`, so only
     /// approaching pairs meet, by the first form). The form is picked by the sign of `b`, so
     /// one division serves both, and the time is kept or replaced by `+∞` by a select, not a
-    /// jump ([`pick`]): whether a neighbour approaches is a coin flip, and a mispredicted
+    /// jump (`pick`): whether a neighbour approaches is a coin flip, and a mispredicted
     /// jump per neighbour cost more than the arithmetic (BENCHMARKS.md, design decisions).
     #[inline]
     pub fn contact_time(&self, max_tau: f64) -> f64 {
