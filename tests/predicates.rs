@@ -365,7 +365,7 @@ proptest! {
         });
         // `grows = true` is right for any rates; `false` only when no rate is nonzero.
         let rates_zero = [p.a.g, p.b.g, q.b.g] == [0.0; 3];
-        for grows in [true, !rates_zero] {
+        for grows in std::iter::once(true).chain(rates_zero.then_some(false)) {
             let (passed, handed_on) = screen(&p.a, lanes, t0, horizon, grows);
             for k in 0..2 {
                 let time = time(lanes[k], horizon[k]);

@@ -952,8 +952,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     fn predict_pairs(&mut self, i: usize, partners: Partners) {
         // One pass for intervals with growth and one without, each compiled with its own
         // screen (a pass that asked a flag in each step ran 0.9 % more instructions in the
-        // fluid; BENCHMARKS.md, session 17).
-        if self.grows {
+        // fluid; BENCHMARKS.md, session 17). Shapes without a screen need only one.
+        if self.grows || !S::SCREENS_PAIRS {
             self.predict_pairs_as::<true>(i, partners);
         } else {
             self.predict_pairs_as::<false>(i, partners);

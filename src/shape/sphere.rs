@@ -45,41 +45,19 @@ pub fn predict_sphere_sphere(
     (tau < f64::INFINITY).then_some(tau)
 }
 
-/// Coefficients `(a, b, c)` of the gap function `f(τ) = a τ² + 2 b τ + c` of two growing
-/// spheres (paper 001, Eq. 22): `a = dv² − G²`, `b = dr·dv − σ G`, `c = dr² − σ²`, with `σ`
-/// the sum of the radii and `G` of the growth rates (`None`: `G = 0`, the same numbers
-/// without the terms that subtract `+0`), `dr` and `dv` by coordinate. One formula for
-/// [`sphere_contact_time`] (`T = f64`) and the two-lane screen [`sphere_contact_possible`]
-/// (`T = Lanes`), so that the screen decides on the very numbers the time is computed from:
-/// the same operations in the same order (dot products summed `(x + y) + z`), and IEEE
-/// arithmetic per lane.
-#[inline(always)]
-fn gap_coefficients<T>(sigma: T, growth: Option<T>, dr: [T; 3], dv: [T; 3]) -> (T, T, T)
-where
-    T: Copy + std::ops::Add<Output = T> + std::ops::Sub<Output = T> + std::ops::Mul<Output = T>,
-{
-    let dot = |x: [T; 3], y: [T; 3]| x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
-    let (a, b) = (dot(dv, dv), dot(dr, dv));
-    let (a, b) = match growth {
-        Some(g) => (a - g * g, b - sigma * g),
-        None => (a, b),
-    };
-    (a, b, dot(dr, dr) - sigma * sigma)
-}
-
 /// [`predict_sphere_sphere`] as a time, `+∞` for no contact within `[0, max_tau]`: the
 /// first contact of the pair's gap quadratic ([`GapQuadratic::contact_time`]).
 #[inline]
 pub fn sphere_contact_time(sigma: f64, growth: f64, dr: &Vec3, dv: &Vec3, max_tau: f64) -> f64 {
-    let (a, b, c) = gap_coefficients(sigma, Some(growth), (*dr).into(), (*dv).into());
-    GapQuadratic { a, b, c }.contact_time(max_tau)
+    GapQuadratic::of(sigma, Some(growth), (*dr).into(), (*dv).into()).contact_time(max_tau)
 }
 
 /// The gap function `f(τ) = a τ² + 2 b τ + c` of a pair of growing spheres (paper 001,
-/// Eq. 22), of one pair (`T = f64`) or of two, one per lane
-/// (`T = Lanes`): the screen of two pairs (`sphere_contact_possible`) hands its lanes on to
-/// the contact times of those that pass ([`Collidable::screened_time`]), which then need no
-/// second look at the pair (BENCHMARKS.md, session 17).
+/// Eq. 22), of one pair (`T = f64`) or of two, one per lane (`T = Lanes`). One formula
+/// ([`GapQuadratic::of`]) for the contact time and the two-lane screen
+/// (`sphere_contact_possible`), which hands its lanes on to the contact times of those that
+/// pass ([`Collidable::screened_time`]): they need no second look at the pair
+/// (BENCHMARKS.md, session 17).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct GapQuadratic<T = f64> {
     /// `dv² − G²` (length²/time²).
@@ -88,6 +66,32 @@ pub struct GapQuadratic<T = f64> {
     pub b: T,
     /// `dr² − σ²` (length²).
     pub c: T,
+}
+
+impl<T> GapQuadratic<T>
+where
+    T: Copy + std::ops::Add<Output = T> + std::ops::Sub<Output = T> + std::ops::Mul<Output = T>,
+{
+    /// The quadratic of two growing spheres: `a = dv² − G²`, `b = dr·dv − σ G`,
+    /// `c = dr² − σ²`, with `σ` the sum of the radii and `G` of the growth rates (`None`:
+    /// `G = 0`, the same numbers without the terms that subtract `+0`), `dr` and `dv` by
+    /// coordinate. The same operations in the same order for `f64` and for [`Lanes`] (dot
+    /// products summed `(x + y) + z`), IEEE arithmetic per lane: the screen decides on the
+    /// very numbers the time is computed from.
+    #[inline(always)]
+    pub fn of(sigma: T, growth: Option<T>, dr: [T; 3], dv: [T; 3]) -> Self {
+        let dot = |x: [T; 3], y: [T; 3]| x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
+        let (a, b) = (dot(dv, dv), dot(dr, dv));
+        let (a, b) = match growth {
+            Some(g) => (a - g * g, b - sigma * g),
+            None => (a, b),
+        };
+        Self {
+            a,
+            b,
+            c: dot(dr, dr) - sigma * sigma,
+        }
+    }
 }
 
 impl GapQuadratic<Lanes> {
@@ -156,7 +160,7 @@ impl GapQuadratic {
 ///   `τ = (b + √(b² − ac)) / (−a)`, within it iff `y = −a T − b ≥ 0` and `b² − ac ≤ y²`.
 ///
 /// `a`, `b`, `c` and `b² − ac` are the same numbers the time is computed from
-/// ([`gap_coefficients`]); the horizon is widened by a relative `1e-9`, far above the
+/// ([`GapQuadratic::of`]); the horizon is widened by a relative `1e-9`, far above the
 /// rounding of the products, so that rounding never rejects a pair whose computed time lies
 /// inside it. Touching pairs (`c ≤ 0`) always pass.
 #[inline]
@@ -168,7 +172,8 @@ pub fn sphere_contact_possible(
     max_tau: Lanes,
 ) -> ([bool; 2], GapQuadratic<Lanes>) {
     let zero = Lanes::ZERO;
-    let (a, b, c) = gap_coefficients(sigma, growth, *dr, *dv);
+    let gap = GapQuadratic::of(sigma, growth, *dr, *dv);
+    let GapQuadratic { a, b, c } = gap;
     let disc = b * b - a * c;
     let horizon = max_tau * Lanes::splat(1.0 + 1e-9);
     let touching = c.cmp_le(zero);
@@ -187,7 +192,7 @@ pub fn sphere_contact_possible(
         touching | approaching_in_time | receding_in_time
     };
     let bits = pass.move_mask();
-    ([bits & 1 != 0, bits & 2 != 0], GapQuadratic { a, b, c })
+    ([bits & 1 != 0, bits & 2 != 0], gap)
 }
 
 /// `if condition { x } else { y }`, marked unpredictable so that the compiler emits a select
