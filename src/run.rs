@@ -45,14 +45,18 @@ pub enum RunError {
     Seeding(#[from] RsaFailure),
     /// A stage stopped before reaching its goal.
     #[error(
-        "stage {stage} stopped without reaching its goal: {reason} after {events} events \
-         (packing fraction {fraction:.6}, reduced pressure {pressure:.4e})"
+        "stage {stage} stopped without reaching its goal ({goal}): {reason} after {events} \
+         events (packing fraction {fraction:.6}, reduced pressure {pressure:.4e}){hint}"
     )]
     StageFailed {
         /// Index of the stage.
         stage: usize,
+        /// The goal the scene asked of the stage.
+        goal: String,
         /// Stop reason.
         reason: &'static str,
+        /// What the stop reason means for the scene, for people (may be empty).
+        hint: &'static str,
         /// Events in the stage.
         events: u64,
         /// Packing fraction at the stop.
@@ -703,7 +707,20 @@ where
             let last = reports.last().expect("just pushed");
             return Err(RunError::StageFailed {
                 stage: k,
+                goal: spec.until.describe(),
                 reason: last.stop_reason.as_str(),
+                hint: match last.stop_reason {
+                    StopReason::JammedBeforeGoal => {
+                        ": the particles jammed first, so the goal cannot be reached by growth \
+                         (lower the packing fraction or gap, or grow more slowly to pack \
+                         denser)"
+                    }
+                    StopReason::Stalled => {
+                        ": simulated time stopped advancing (see `stall_epsilon` in \
+                         docs/scenes.md)"
+                    }
+                    _ => "",
+                },
                 events: last.counts.events,
                 fraction: last.packing_fraction,
                 pressure: last.reduced_pressure,

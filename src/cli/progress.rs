@@ -43,16 +43,25 @@ impl RunLog {
     }
 }
 
+/// Reduced pressure above which a run shows no ETA.
+const ETA_PRESSURE_LIMIT: f64 = 100.0;
+
 /// The JSON record of a progress tick (`--log-json`, `--run-log`): `{"type": "progress",
 /// "stage", "wall_seconds", "stage_time", "packing_fraction", "reduced_pressure", "gap",
 /// "events", "collisions", "events_per_second", "eta_seconds"}`; NaN and infinities are
 /// written as null.
 pub fn progress_record(stage: usize, p: &Progress) -> serde_json::Value {
     let rate = p.counts.events as f64 / p.wall_seconds.max(1e-9);
-    // Simulated time advances roughly linearly in wall time within a stage.
+    // Simulated time advances roughly linearly in wall time within a stage, until the
+    // particles approach jamming: then the collision rate diverges, and a packing fraction
+    // or gap goal may lie beyond the jamming point, so no ETA is promised (an equilibrium
+    // hard-sphere fluid stays below Z ≈ 40 up to its freezing point and beyond).
     let eta = p
         .goal_time
-        .filter(|_| p.stage_time > 0.0)
+        .filter(|_| {
+            p.stage_time > 0.0
+                && (p.reduced_pressure.is_nan() || p.reduced_pressure <= ETA_PRESSURE_LIMIT)
+        })
         .map(|goal| (goal - p.stage_time).max(0.0) * p.wall_seconds / p.stage_time);
     serde_json::json!({
         "type": "progress",

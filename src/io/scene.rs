@@ -68,7 +68,7 @@
 //! Every table rejects unknown keys; [`Scene::validate`] names the offending field and its
 //! allowed range.
 
-use crate::kernel::{KernelConfig, Limits, Stage, Until, MAX_SKIN};
+use crate::kernel::{KernelConfig, Limits, Stage, Until, JAMMING_PRESSURE, MAX_SKIN};
 use crate::protocol::take_phase::{GradingSpec, TakeError, TakeParams, TakePhase};
 use crate::queue::QueueKind;
 use crate::shape::{Growth, MassRule, Predictor, CONTACT_TOLERANCE, MAX_CONTACT_TOLERANCE};
@@ -404,6 +404,29 @@ pub struct UntilSpec {
     /// Grow (absolute growth) from the true sizes until jammed (reduced pressure, default
     /// 10¹²): the largest minimum gap Δd_max.
     pub max_gap: Option<bool>,
+}
+
+impl UntilSpec {
+    /// The goal as the scene states it, for messages: `packing_fraction = 0.74`, …
+    pub fn describe(&self) -> String {
+        let mut parts = Vec::new();
+        let mut number = |name: &str, v: Option<f64>| {
+            if let Some(v) = v {
+                parts.push(format!("{name} = {v}"));
+            }
+        };
+        number("packing_fraction", self.packing_fraction);
+        number("reduced_pressure", self.reduced_pressure);
+        number("time", self.time);
+        number("collisions_per_particle", self.collisions_per_particle);
+        number("gap", self.gap);
+        for (name, flag) in [("full_size", self.full_size), ("max_gap", self.max_gap)] {
+            if flag == Some(true) {
+                parts.push(format!("{name} = true"));
+            }
+        }
+        parts.join(", ")
+    }
 }
 
 /// Growth protocol names.
@@ -1302,10 +1325,10 @@ impl StageSpec {
             let t = 0.5 * gap / rate;
             until.time = Some(until.time.map_or(t, |x| x.min(t)));
         }
-        // A gap stage that jams cannot open its gap: stop there (failure) instead of
-        // grinding on; a max_gap stage stops there by design.
-        if self.opens_gap() && until.reduced_pressure.is_none() {
-            until.reduced_pressure = Some(DEFAULT_JAMMING_PRESSURE);
+        // Δd maximisation ends when the grains jam; any other growing stage that jams fails
+        // there (`Limits::jamming_pressure`) instead of grinding on.
+        if u.max_gap == Some(true) && until.reduced_pressure.is_none() {
+            until.reduced_pressure = Some(JAMMING_PRESSURE);
         }
         Stage {
             growth,
@@ -1314,6 +1337,7 @@ impl StageSpec {
                 events: self.max_events.unwrap_or(u64::MAX),
                 wall_seconds: self.max_wall_seconds,
                 stall_epsilon: self.stall_epsilon.unwrap_or(0.0),
+                jamming_pressure: Some(JAMMING_PRESSURE),
             },
             thermostat: self.thermostat.unwrap_or(growth != Growth::None),
             // The walls see a grain grow at 2λ times its rate: wall gap λ·Δd(t), Δd = 2·rate·t.
@@ -1325,9 +1349,6 @@ impl StageSpec {
         }
     }
 }
-
-/// Reduced pressure taken as jammed when a `gap` or `max_gap` stage gives none.
-pub const DEFAULT_JAMMING_PRESSURE: f64 = 1e12;
 
 // ------------------------------------------------------------------ sphere + cylinder mixtures
 

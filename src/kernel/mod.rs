@@ -67,7 +67,9 @@ mod stage;
 
 pub use checkpoint::{KernelSnapshot, SnapshotError};
 use local::{EventKind, LocalEvent, LocalList, LocalLists, LOCAL_CAPACITY};
-pub use stage::{Limits, Progress, Stage, StageProgress, StageReport, StopReason, Until};
+pub use stage::{
+    Limits, Progress, Stage, StageProgress, StageReport, StopReason, Until, JAMMING_PRESSURE,
+};
 
 use crate::boundary::{Boundary, WallId};
 use crate::prefetch;

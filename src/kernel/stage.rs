@@ -31,7 +31,17 @@ pub struct Limits {
     /// Stall criterion of paper 001: fail when the simulated time advances less than this
     /// over 1000 events. Zero still fails a run whose time does not advance at all.
     pub stall_epsilon: f64,
+    /// A growing stage fails when the reduced pressure of a barrier interval reaches this
+    /// value before its goal: the particles are jammed, so no packing fraction, time or gap
+    /// beyond that point can be reached by growth ([`StopReason::JammedBeforeGoal`]). A goal
+    /// of [`Until::reduced_pressure`] is checked first, so a jamming stage succeeds.
+    /// `None` lets a stage grow on at any pressure (it then needs another limit to end).
+    pub jamming_pressure: Option<f64>,
 }
+
+/// Reduced pressure `Z = PV/(NkT)` taken as jammed: at `Z = 10¹²` the gaps that carry the
+/// pressure are about `10⁻¹²` diameters wide, the resolution of double precision.
+pub const JAMMING_PRESSURE: f64 = 1e12;
 
 impl Default for Limits {
     fn default() -> Self {
@@ -39,6 +49,7 @@ impl Default for Limits {
             events: u64::MAX,
             wall_seconds: None,
             stall_epsilon: 0.0,
+            jamming_pressure: Some(JAMMING_PRESSURE),
         }
     }
 }
@@ -87,6 +98,8 @@ pub enum StopReason {
     WallClockLimit,
     /// The goal cannot be reached by this stage (e.g. a packing fraction without growth).
     Unreachable,
+    /// The particles jammed ([`Limits::jamming_pressure`]) before the goal was reached.
+    JammedBeforeGoal,
 }
 
 impl StopReason {
@@ -112,6 +125,7 @@ impl StopReason {
             Self::EventLimit => "event_limit",
             Self::WallClockLimit => "wall_clock_limit",
             Self::Unreachable => "unreachable",
+            Self::JammedBeforeGoal => "jammed_before_goal",
         }
     }
 }
@@ -398,6 +412,15 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                     report_reason = Some(StopReason::Jammed);
                     break;
                 }
+            }
+            if growing
+                && stage
+                    .limits
+                    .jamming_pressure
+                    .is_some_and(|z| progress.last_z >= z)
+            {
+                report_reason = Some(StopReason::JammedBeforeGoal);
+                break;
             }
             if progress
                 .collisions_goal

@@ -1,0 +1,160 @@
+//! Every shipped scene, its goal made unreachable, ends with exit 1 and a verdict.
+//!
+//! Each scene of `examples/scenes/` that runs growth stages is rewritten so that its last
+//! stage asks for a packing fraction no sphere or ellipsoid packing reaches (0.95, above the
+//! densest sphere packing's 0.7405 and the densest known ellipsoid packings' 0.7707), and is
+//! run through the binary. The run must end by the jamming guard (`jammed_before_goal`)
+//! within the stage's `max_events`, which the test sets: a run that spins on would end by
+//! `event_limit` instead, and fail the test. Large scenes are shrunk first (fewer particles, a
+//! smaller specimen, a coarser cut-off `d_min`) so the test stays quick; what is checked — that
+//! a stage whose goal lies beyond jamming stops at jamming — does not depend on the size.
+//! Sphere + cylinder mixtures have no growth stages (their fractions are refused or fail in
+//! random sequential addition, `tests/mixture.rs`) and are skipped, and so are the ellipsoid
+//! scenes of aspect ratio above [`MAX_ASPECT`] (paper 004's Table 2 needles and discs): the
+//! guard is the same code for every shape, but jamming needles to `Z = 10¹²` takes minutes.
+
+mod common;
+
+use common::{densepack, temp_dir};
+use toml::Value;
+
+/// Largest ellipsoid aspect ratio among the scenes this test runs.
+const MAX_ASPECT: f64 = 2.5;
+
+/// Events a shrunk scene may take before the test calls it endless.
+const MAX_EVENTS: i64 = 100_000_000;
+
+/// The scene with its size bounded and its last stage's goal unreachable, or `None` for a
+/// scene without growth stages. `widen` multiplies the container's edges by 2 and the
+/// particle count by 8 that many times (same particle sizes): at a fraction of 0.95, long
+/// ellipsoids would outgrow a small periodic box, which validation refuses.
+fn unreachable_variant(text: &str, widen: u32) -> Option<String> {
+    let mut scene: Value = toml::from_str(text).expect("a shipped scene parses");
+    let table = scene.as_table_mut().expect("a scene is a table");
+    let aspect = table["particles"]
+        .get("ellipsoid")
+        .and_then(|e| e.get("aspect_ratios").or(e.get("aspect_ratio_ranges")))
+        .map_or(1.0, |a| {
+            let text = a.to_string();
+            text.split(|c: char| !(c.is_ascii_digit() || c == '.'))
+                .filter_map(|x| x.parse::<f64>().ok())
+                .fold(1.0, f64::max)
+        });
+    if aspect > MAX_ASPECT {
+        return None;
+    }
+    let stages = table.get_mut("stage")?.as_array_mut()?;
+    // The stages before the last keep their goals (they are reachable); all get the bound.
+    for stage in stages.iter_mut() {
+        let stage = stage.as_table_mut().expect("a stage is a table");
+        stage.insert("max_events".into(), Value::Integer(MAX_EVENTS));
+        stage.remove("max_wall_seconds");
+    }
+    let last = stages.last_mut().expect("at least one stage");
+    let mut goal = toml::map::Map::new();
+    goal.insert("packing_fraction".into(), Value::Float(0.95));
+    let last = last.as_table_mut().unwrap();
+    for key in ["wall_gap", "wall_gap_fraction", "thermostat"] {
+        last.remove(key);
+    }
+    last.insert("until".into(), Value::Table(goal));
+    last.insert("growth".into(), Value::String("relative".into()));
+    last.insert("rate".into(), Value::Float(0.2));
+    let particles = table["particles"].as_table_mut().unwrap();
+    if particles.get("count").and_then(Value::as_integer) > Some(2000) {
+        particles.insert("count".into(), Value::Integer(2000));
+    }
+    for _ in 0..widen {
+        let particles = table["particles"].as_table_mut().unwrap();
+        let count = particles["count"]
+            .as_integer()
+            .expect("ellipsoid scenes give a count");
+        particles.insert("count".into(), Value::Integer(8 * count));
+        let size = table["container"]["size"].as_array().unwrap().clone();
+        let wider = size
+            .iter()
+            .map(|x| Value::Float(2.0 * x.as_float().unwrap()));
+        table["container"]
+            .as_table_mut()
+            .unwrap()
+            .insert("size".into(), Value::Array(wider.collect()));
+    }
+    let particles = table["particles"].as_table_mut().unwrap();
+    if particles.contains_key("grading") {
+        // A 40 mm specimen with grains from 4 mm: a few hundred grains.
+        let d_min = particles
+            .get("d_min")
+            .and_then(Value::as_float)
+            .unwrap_or(0.0);
+        particles.insert("d_min".into(), Value::Float(d_min.max(4.0)));
+        let container = table["container"].as_table_mut().unwrap();
+        if container.get("type").and_then(Value::as_str) == Some("cylinder") {
+            container.insert("radius".into(), Value::Float(25.0));
+            container.insert("height".into(), Value::Float(50.0));
+        } else {
+            container.insert("size".into(), Value::Array(vec![Value::Float(40.0); 3]));
+        }
+    }
+    Some(toml::to_string(&scene).expect("serialisable"))
+}
+
+#[test]
+fn every_shipped_scene_with_an_unreachable_goal_fails_with_a_verdict() {
+    let dir = temp_dir("unreachable");
+    let mut scenes: Vec<_> = std::fs::read_dir("examples/scenes")
+        .expect("examples/scenes")
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    scenes.sort();
+    let mut ran = 0;
+    for path in &scenes {
+        let text = std::fs::read_to_string(path).unwrap();
+        let name = path.file_name().unwrap().to_string_lossy().to_string();
+        let scene = dir.join(&name);
+        let out = dir.join(format!("{name}.json"));
+        let mut widen = 0;
+        let (variant, result) = loop {
+            let Some(variant) = unreachable_variant(&text, widen) else {
+                break (None, None);
+            };
+            std::fs::write(&scene, &variant).unwrap();
+            let result = densepack(&[
+                "run",
+                scene.to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+                "--quiet",
+            ]);
+            let refused = String::from_utf8_lossy(&result.stderr)
+                .contains("a periodic box edge must exceed the largest bounding diameter");
+            if refused && widen < 2 {
+                widen += 1;
+                continue;
+            }
+            break (Some(variant), Some(result));
+        };
+        let (Some(variant), Some(result)) = (variant, result) else {
+            continue;
+        };
+        let stderr = String::from_utf8_lossy(&result.stderr);
+        assert_eq!(
+            result.status.code(),
+            Some(1),
+            "{name}: expected exit 1, got {:?}\n{stderr}\nscene:\n{variant}",
+            result.status.code()
+        );
+        assert!(
+            stderr.contains("jammed_before_goal") && stderr.contains("packing_fraction = 0.95"),
+            "{name}: the run must end at jamming and name the goal it missed:\n{stderr}"
+        );
+        assert!(
+            !out.exists(),
+            "{name}: a failed run wrote {}",
+            out.display()
+        );
+        ran += 1;
+    }
+    assert!(ran >= 10, "only {ran} shipped scenes have growth stages");
+    let _ = std::fs::remove_dir_all(&dir);
+}
