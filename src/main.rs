@@ -79,6 +79,9 @@ enum Command {
         #[arg(long, requires = "grading")]
         d_min: Option<f64>,
     },
+    /// Is a sphere packing jammed? Contacts against the gap cut-off, rattlers, the
+    /// backbone's contact number, Q6 and a linear-programming certificate.
+    Analyse(cli::analyse::AnalyseArgs),
     /// Export a packing for meshing (Gmsh), visualisation (VTK), FFT (voxels) or tables (CSV).
     Export(cli::export::ExportArgs),
     /// Dry run of the take phase: grading curve → expected particle count, φ_eff, memory;
@@ -196,6 +199,7 @@ fn main() -> ExitCode {
             grading,
             d_min,
         }) => cli::verify::run(&packing, json, grading.as_deref(), d_min),
+        Some(Command::Analyse(args)) => cli::analyse::run(&args),
         Some(Command::Export(args)) => cli::export::run(&args),
         Some(Command::Take(args)) => cli::take::run(&args),
         Some(Command::Init(args)) => cli::init::run(&args),

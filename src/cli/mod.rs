@@ -1,5 +1,6 @@
 //! Subcommands of the `densepack` binary that live outside `main.rs`.
 
+pub mod analyse;
 pub mod bench;
 pub mod export;
 pub mod init;

@@ -1,6 +1,8 @@
 //! Descriptions of a packing for `densepack verify` and `densepack plot`: the gap histogram,
 //! the sieve curve against a grading curve, the size histogram and plane sections. Pure
-//! functions of the written packing.
+//! functions of the written packing. [`jamming`] says whether a sphere packing is jammed.
+
+pub mod jamming;
 
 use crate::io::export::{bounding_sphere, container_bounds, periodic_axes, rotation_of};
 use crate::io::packing::{ContainerRecord, Packing, ParticleRecord};

@@ -1,0 +1,555 @@
+//! Is a sphere packing jammed? Contacts, rattlers, the backbone's contact number, the
+//! bond-orientational order and a linear-programming certificate, all computed from the
+//! written packing alone (no kernel counters, no prediction code).
+//!
+//! - **Contacts.** A pair is in contact when its relative surface gap
+//!   `|c_i − c_j| / (r_i + r_j) − 1` is below the cut-off `h`; a sphere touches a wall when
+//!   `(distance to the wall − r) / r < h`. Radii are first inflated by half the packing's
+//!   `min_gap` (and wall distances reduced by its `wall_gap`), so that the network of a gap
+//!   packing (paper 001, Eq. 31) is that of the grown grains. A jammed packing at reduced
+//!   pressure `Z` has its contacts within about `1/Z` and its next neighbours orders of
+//!   magnitude further: the count is flat over a wide range of `h` (the *plateau*, reported
+//!   for `h = 10⁻¹⁴ … 10⁻⁴`).
+//! - **Rattlers** are removed iteratively: a sphere with fewer than `d + 1 = 4` contacts
+//!   (walls included) cannot be locally jammed; removing it may leave a neighbour with fewer
+//!   than 4, and so on. The rest is the *backbone*.
+//! - **Isostaticity.** The backbone of `n` spheres has `3n − t` non-trivial degrees of freedom
+//!   (`t` = 3 rigid translations along periodic axes, fewer with walls). A collectively jammed
+//!   network needs at least `3n − t + 1` contacts (one self-stress to carry the pressure);
+//!   a random jammed packing has exactly that many (Donev, Torquato & Stillinger,
+//!   PRE 71, 011105, 2005; O'Hern et al., PRE 68, 011306, 2003): mean contact number
+//!   `Z = 2·pairs/n → 6` for a periodic packing.
+//! - **Q6.** The global bond-orientational order of Steinhardt, Nelson & Ronchetti (PRB 28,
+//!   784, 1983) over the bonds shorter than 1.2·(r_i + r_j), from the addition theorem:
+//!   `Q6² = Σ_{a,b} P6(u_a·u_b) / N_b²`, evaluated through the moment tensors
+//!   `M_k = Σ_a u_a^{⊗k}` as `(231‖M6‖² − 315‖M4‖² + 105‖M2‖² − 5N_b²) / (16 N_b²)`
+//!   (`P6(x) = (231x⁶ − 315x⁴ + 105x² − 5)/16`). A perfect FCC crystal has 0.5745; bonds in
+//!   random directions give `1/√N_b`.
+//! - **Collective jamming** (Donev, Torquato, Stillinger & Connelly, J. Comput. Phys. 197,
+//!   139, 2004): the backbone is collectively jammed (in a fixed container) when no
+//!   displacement `Δx` of its spheres opens a contact without closing another, to first
+//!   order: `u_ij·(Δx_j − Δx_i) ≥ 0` for every contact and `n_w·Δx_i ≥ 0` for every wall
+//!   contact (`u_ij` the unit vector from `i` to `j`, `n_w` the wall's inward normal) admit
+//!   only rigid translations. Two linear programs over `|Δx_k| ≤ 1` decide it: the largest
+//!   total opening `Σ u·ΔΔx` (positive: an unjamming motion) and the largest work `bᵀΔx` of a
+//!   random load `b` with zero mean (positive: a floppy motion that keeps every contact, which
+//!   a random load meets with probability 1). Jammed means both optima are zero. The LPs are
+//!   solved by the Clarabel interior-point solver; an optimum counts as zero below
+//!   [`LP_ZERO`] times its scale.
+
+use crate::io::export::{container_bounds, periodic_axes};
+use crate::io::packing::{ContainerRecord, Packing, ParticleRecord};
+use rand::{Rng, SeedableRng};
+
+/// The cut-offs of the plateau table: `10⁻¹⁴ … 10⁻⁴`.
+pub const PLATEAU_CUTOFFS: [f64; 11] = [
+    1e-14, 1e-13, 1e-12, 1e-11, 1e-10, 1e-9, 1e-8, 1e-7, 1e-6, 1e-5, 1e-4,
+];
+
+/// Default contact cut-off: well inside the plateau of a packing jammed to `Z = 10¹²`.
+pub const DEFAULT_CUTOFF: f64 = 1e-9;
+
+/// Relative size below which an LP optimum counts as zero (the solver's tolerances are about
+/// 10⁻⁸ of the objective's scale).
+pub const LP_ZERO: f64 = 1e-6;
+
+/// Bonds of the Q6 order: centre distance below this multiple of `r_i + r_j`.
+const BOND_REACH: f64 = 1.2;
+
+/// Q6 of a perfect face-centred cubic crystal (12 nearest neighbours).
+pub const Q6_FCC: f64 = 0.574_52;
+
+/// One contact: a pair of spheres, or a sphere and a wall.
+#[derive(Clone, Copy, Debug)]
+struct Contact {
+    i: u32,
+    /// The partner, or `None` for a wall.
+    j: Option<u32>,
+    /// Unit vector from `i` to `j`, or from the wall into the container for a wall contact.
+    normal: [f64; 3],
+    /// Relative gap (see the module docs).
+    gap: f64,
+}
+
+/// The contacts and rattlers at one cut-off.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct CutoffRow {
+    /// The relative gap cut-off `h`.
+    pub cutoff: f64,
+    /// Mean contacts per sphere before rattlers are removed (`(2·pairs + walls)/N`).
+    pub mean_contacts: f64,
+    /// Fraction of the spheres that are rattlers.
+    pub rattler_fraction: f64,
+    /// Mean contact number of the backbone (`(2·pairs + walls)/n`), `None` if it is empty.
+    pub backbone_mean_contacts: Option<f64>,
+    /// Contacts of the backbone per non-trivial degree of freedom, `(pairs + walls)/(3n − t)`:
+    /// 1 (plus `1/(3n − t)`) for an isostatic network, below 1 for a floppy one.
+    pub constraints_per_freedom: Option<f64>,
+}
+
+/// The verdict of the linear-programming test for collective jamming.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct LpCertificate {
+    /// No unjamming motion and no floppy motion: collectively jammed.
+    pub jammed: bool,
+    /// Largest total opening of the contacts over `|Δx_k| ≤ 1`, per contact.
+    pub opening_per_contact: f64,
+    /// Largest work of the random load over `|Δx_k| ≤ 1`, relative to `Σ|b_k|`.
+    pub load_work: f64,
+    /// The solver's status for the two programs (`Solved`, or why not).
+    pub status: [String; 2],
+    /// Solver seconds for both programs.
+    pub seconds: f64,
+}
+
+/// Everything the report says about a packing.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct JammingReport {
+    /// Number of spheres.
+    pub particles: usize,
+    /// The cut-off of the verdict.
+    pub cutoff: f64,
+    /// Contacts, rattlers and backbone at [`JammingReport::cutoff`].
+    pub at_cutoff: CutoffRow,
+    /// The same at every cut-off of [`PLATEAU_CUTOFFS`].
+    pub plateau: Vec<CutoffRow>,
+    /// Rigid translations of the container (periodic axes): `t` of the isostatic count.
+    pub trivial_motions: usize,
+    /// Global Q6 over the bonds (see the module docs).
+    pub q6: f64,
+    /// `1/√N_b`: Q6 of as many bonds in random directions.
+    pub q6_random: f64,
+    /// Number of bonds behind Q6.
+    pub bonds: usize,
+    /// The LP test on the backbone, when asked for.
+    pub lp: Option<LpCertificate>,
+}
+
+/// Why a packing has no jamming report.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum JammingError {
+    /// The report is for spheres only.
+    #[error("the jamming report is for sphere packings (particle {0} is not a sphere)")]
+    NotSpheres(usize),
+    /// The cut-off is outside `(0, 0.1]`.
+    #[error("cut-off = {0}: must be > 0 and ≤ 0.1 (a relative surface gap)")]
+    Cutoff(f64),
+}
+
+/// The jamming report of `packing` at contact cut-off `cutoff`, with the LP test when `lp`
+/// (seeded by `seed` for its random load, each program given at most `time_limit` seconds;
+/// a program out of time gives no verdict: `jammed` is false and its status says why).
+pub fn jamming_report(
+    packing: &Packing,
+    cutoff: f64,
+    lp: bool,
+    seed: u64,
+    time_limit: f64,
+) -> Result<JammingReport, JammingError> {
+    if !(cutoff > 0.0 && cutoff <= 0.1) {
+        return Err(JammingError::Cutoff(cutoff));
+    }
+    let spheres = spheres_of(packing)?;
+    let n = spheres.len();
+    let periodic = periodic_axes(&packing.container);
+    let trivial = periodic.iter().filter(|&&p| p).count();
+    let widest = PLATEAU_CUTOFFS[PLATEAU_CUTOFFS.len() - 1].max(cutoff);
+    let (contacts, bond_normals) = near_pairs(packing, &spheres, widest);
+    let row = |h: f64| -> CutoffRow {
+        let (alive, backbone) = backbone(n, &contacts, h);
+        let nb = alive.iter().filter(|&&a| a).count();
+        let count = contacts.iter().filter(|c| c.gap < h).count() as f64;
+        let pairs = contacts
+            .iter()
+            .filter(|c| c.gap < h && c.j.is_some())
+            .count() as f64;
+        let walls = count - pairs;
+        let b_pairs = backbone.iter().filter(|c| c.j.is_some()).count() as f64;
+        let b_walls = backbone.len() as f64 - b_pairs;
+        let freedoms = 3 * nb as i64 - trivial as i64;
+        CutoffRow {
+            cutoff: h,
+            mean_contacts: (2.0 * pairs + walls) / n.max(1) as f64,
+            rattler_fraction: (n - nb) as f64 / n.max(1) as f64,
+            backbone_mean_contacts: (nb > 0).then(|| (2.0 * b_pairs + b_walls) / nb as f64),
+            constraints_per_freedom: (freedoms > 0).then(|| (b_pairs + b_walls) / freedoms as f64),
+        }
+    };
+    let lp = lp.then(|| {
+        let (alive, backbone) = backbone(n, &contacts, cutoff);
+        let freedoms = 3 * alive.iter().filter(|&&a| a).count() as i64 - trivial as i64;
+        if (backbone.len() as i64) < freedoms + 1 {
+            // Fewer contacts than non-trivial freedoms plus the self-stress: floppy motions
+            // exist by counting alone (Maxwell), no program needs to find one.
+            LpCertificate::hypostatic(backbone.len(), freedoms)
+        } else {
+            lp_certificate(&alive, &backbone, seed, time_limit)
+        }
+    });
+    let bonds = bond_normals.len();
+    Ok(JammingReport {
+        particles: n,
+        cutoff,
+        at_cutoff: row(cutoff),
+        plateau: PLATEAU_CUTOFFS.iter().map(|&h| row(h)).collect(),
+        trivial_motions: trivial,
+        q6: q6(&bond_normals),
+        q6_random: 1.0 / (bonds.max(1) as f64).sqrt(),
+        bonds,
+        lp,
+    })
+}
+
+/// Centres and radii (inflated by half the claimed gap) of the spheres.
+fn spheres_of(packing: &Packing) -> Result<Vec<([f64; 3], f64)>, JammingError> {
+    packing
+        .particles
+        .iter()
+        .enumerate()
+        .map(|(i, p)| match p {
+            ParticleRecord::Sphere { center, radius } => {
+                Ok((*center, radius + 0.5 * packing.min_gap))
+            }
+            _ => Err(JammingError::NotSpheres(i)),
+        })
+        .collect()
+}
+
+/// The contacts with relative gap below `reach` (pairs and walls), and the unit vectors of
+/// the bonds of Q6. Pairs come from a uniform grid of cells at least `1.2·2·r_max` wide, its
+/// own search (independent of the kernel's cell grid and lists): every pair closer than
+/// `1.2·(r_i + r_j)` lies in neighbouring cells.
+fn near_pairs(
+    packing: &Packing,
+    spheres: &[([f64; 3], f64)],
+    reach: f64,
+) -> (Vec<Contact>, Vec<[f64; 3]>) {
+    let (lo, hi) = container_bounds(&packing.container);
+    let periodic = periodic_axes(&packing.container);
+    let len: [f64; 3] = std::array::from_fn(|k| hi[k] - lo[k]);
+    let r_max = spheres.iter().map(|s| s.1).fold(0.0, f64::max);
+    let width = 2.0 * BOND_REACH.max(1.0 + reach) * r_max;
+    // At most about one cell per sphere (and at least one per axis).
+    let mut cells: [usize; 3] =
+        std::array::from_fn(|k| ((len[k] / width).floor() as usize).clamp(1, 1 << 20));
+    while cells.iter().product::<usize>() > 4 * spheres.len() + 64 {
+        cells = cells.map(|c| (c / 2).max(1));
+    }
+    let key = |c: &[f64; 3]| -> [usize; 3] {
+        std::array::from_fn(|k| {
+            let x = ((c[k] - lo[k]) / len[k] * cells[k] as f64).floor();
+            (x.max(0.0) as usize).min(cells[k] - 1)
+        })
+    };
+    let linear = |k: [usize; 3]| (k[0] * cells[1] + k[1]) * cells[2] + k[2];
+    let mut start = vec![0usize; cells.iter().product::<usize>() + 1];
+    for s in spheres {
+        start[linear(key(&s.0)) + 1] += 1;
+    }
+    for c in 1..start.len() {
+        start[c] += start[c - 1];
+    }
+    let mut sorted = vec![0u32; spheres.len()];
+    let mut fill = start.clone();
+    for (i, s) in spheres.iter().enumerate() {
+        let c = linear(key(&s.0));
+        sorted[fill[c]] = i as u32;
+        fill[c] += 1;
+    }
+    // Per axis, the distinct neighbouring cell coordinates of cell x.
+    let around = |k: usize, x: usize| -> Vec<usize> {
+        let n = cells[k] as i64;
+        let mut out: Vec<usize> = (-1..=1)
+            .map(|o| x as i64 + o)
+            .filter_map(|y| {
+                if periodic[k] {
+                    Some(y.rem_euclid(n) as usize)
+                } else {
+                    (0..n).contains(&y).then_some(y as usize)
+                }
+            })
+            .collect();
+        out.sort_unstable();
+        out.dedup();
+        out
+    };
+    let mut contacts = Vec::new();
+    let mut bonds = Vec::new();
+    for (i, &(ci, ri)) in spheres.iter().enumerate() {
+        let k = key(&ci);
+        for x in around(0, k[0]) {
+            for y in around(1, k[1]) {
+                for z in around(2, k[2]) {
+                    let c = linear([x, y, z]);
+                    for &j in &sorted[start[c]..start[c + 1]] {
+                        if j as usize <= i {
+                            continue;
+                        }
+                        let (cj, rj) = spheres[j as usize];
+                        let mut d = [0.0; 3];
+                        for a in 0..3 {
+                            d[a] = cj[a] - ci[a];
+                            if periodic[a] {
+                                d[a] -= len[a] * (d[a] / len[a]).round();
+                            }
+                        }
+                        let dist = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                        let sum = ri + rj;
+                        let u = d.map(|x| x / dist);
+                        if dist < BOND_REACH * sum {
+                            bonds.push(u);
+                        }
+                        let gap = dist / sum - 1.0;
+                        if gap < reach {
+                            contacts.push(Contact {
+                                i: i as u32,
+                                j: Some(j),
+                                normal: u,
+                                gap,
+                            });
+                        }
+                    }
+                }
+            }
+        }
+        walls_of(packing, i, ci, ri, reach, &mut contacts);
+    }
+    (contacts, bonds)
+}
+
+/// The wall contacts of sphere `i` (centre `c`, radius `r`) with relative gap below `reach`.
+fn walls_of(packing: &Packing, i: usize, c: [f64; 3], r: f64, reach: f64, out: &mut Vec<Contact>) {
+    let wall_gap = packing.wall_gap() - 0.5 * packing.min_gap;
+    let mut push = |distance: f64, normal: [f64; 3]| {
+        let gap = (distance - wall_gap - r) / r;
+        if gap < reach {
+            out.push(Contact {
+                i: i as u32,
+                j: None,
+                normal,
+                gap,
+            });
+        }
+    };
+    match &packing.container {
+        ContainerRecord::Box { min, max, periodic } => {
+            for k in (0..3).filter(|&k| !periodic[k]) {
+                let mut n = [0.0; 3];
+                n[k] = 1.0;
+                push(c[k] - min[k], n);
+                n[k] = -1.0;
+                push(max[k] - c[k], n);
+            }
+        }
+        ContainerRecord::Cylinder {
+            base_center: b,
+            radius,
+            height,
+        } => {
+            push(c[2] - b[2], [0.0, 0.0, 1.0]);
+            push(b[2] + height - c[2], [0.0, 0.0, -1.0]);
+            let (dx, dy) = (c[0] - b[0], c[1] - b[1]);
+            let rho = dx.hypot(dy);
+            if rho > 0.0 {
+                push(radius - rho, [-dx / rho, -dy / rho, 0.0]);
+            }
+        }
+    }
+}
+
+/// The spheres left after removing rattlers iteratively at cut-off `h`, and their contacts.
+fn backbone(n: usize, contacts: &[Contact], h: f64) -> (Vec<bool>, Vec<Contact>) {
+    let mut kept: Vec<Contact> = contacts.iter().copied().filter(|c| c.gap < h).collect();
+    let mut alive = vec![true; n];
+    loop {
+        let mut count = vec![0u32; n];
+        for c in &kept {
+            count[c.i as usize] += 1;
+            if let Some(j) = c.j {
+                count[j as usize] += 1;
+            }
+        }
+        let mut removed = false;
+        for i in 0..n {
+            if alive[i] && count[i] < 4 {
+                alive[i] = false;
+                removed = true;
+            }
+        }
+        if !removed {
+            return (alive, kept);
+        }
+        kept.retain(|c| alive[c.i as usize] && c.j.is_none_or(|j| alive[j as usize]));
+    }
+}
+
+/// Global Q6 of the bonds `u` through the moment tensors of orders 2, 4 and 6.
+fn q6(bonds: &[[f64; 3]]) -> f64 {
+    if bonds.is_empty() {
+        return f64::NAN;
+    }
+    // ‖M_k‖² = Σ over index tuples of (Σ_a Π u_a[index])², accumulated in full tensors.
+    let mut m2 = [0.0; 9];
+    let mut m4 = [0.0; 81];
+    let mut m6 = vec![0.0; 729];
+    for u in bonds {
+        let mut t2 = [0.0; 9];
+        for a in 0..3 {
+            for b in 0..3 {
+                t2[3 * a + b] = u[a] * u[b];
+            }
+        }
+        for (x, t) in m2.iter_mut().zip(&t2) {
+            *x += t;
+        }
+        for p in 0..9 {
+            for q in 0..9 {
+                m4[9 * p + q] += t2[p] * t2[q];
+                for r in 0..9 {
+                    m6[81 * p + 9 * q + r] += t2[p] * t2[q] * t2[r];
+                }
+            }
+        }
+    }
+    let norm = |m: &[f64]| m.iter().map(|x| x * x).sum::<f64>();
+    let nb = bonds.len() as f64;
+    let sum_p6 = (231.0 * norm(&m6) - 315.0 * norm(&m4) + 105.0 * norm(&m2) - 5.0 * nb * nb) / 16.0;
+    (sum_p6.max(0.0)).sqrt() / nb
+}
+
+impl LpCertificate {
+    /// The verdict without a program for a backbone of `contacts` contacts and `freedoms`
+    /// non-trivial degrees of freedom, `contacts ≤ freedoms`.
+    fn hypostatic(contacts: usize, freedoms: i64) -> Self {
+        let why = format!("not solved: {contacts} contacts for {freedoms} freedoms");
+        Self {
+            jammed: false,
+            opening_per_contact: f64::NAN,
+            load_work: f64::NAN,
+            status: [why.clone(), why],
+            seconds: 0.0,
+        }
+    }
+}
+
+/// The LP test of the module docs on the backbone `alive` with contacts `contacts`, each
+/// program given at most `time_limit` seconds.
+fn lp_certificate(
+    alive: &[bool],
+    contacts: &[Contact],
+    seed: u64,
+    time_limit: f64,
+) -> LpCertificate {
+    use clarabel::algebra::CscMatrix;
+    use clarabel::solver::{
+        DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
+    };
+    let mut index = vec![usize::MAX; alive.len()];
+    let mut n = 0;
+    for (i, &a) in alive.iter().enumerate() {
+        if a {
+            index[i] = n;
+            n += 1;
+        }
+    }
+    if n == 0 {
+        // Every sphere is a rattler: nothing holds the packing.
+        return LpCertificate {
+            jammed: false,
+            opening_per_contact: f64::NAN,
+            load_work: f64::NAN,
+            status: ["no backbone".into(), "no backbone".into()],
+            seconds: 0.0,
+        };
+    }
+    let vars = 3 * n;
+    // Rows: −(opening of contact) ≤ 0, then Δx_k ≤ 1 and −Δx_k ≤ 1.
+    let (mut rows, mut cols, mut vals) = (Vec::new(), Vec::new(), Vec::new());
+    // The opening of each contact as coefficients on Δx.
+    let mut opening_of = |row: usize, c: &Contact, rows: &mut Vec<usize>| {
+        let i = index[c.i as usize];
+        for a in 0..3 {
+            if let Some(j) = c.j {
+                let j = index[j as usize];
+                rows.push(row);
+                cols.push(3 * j + a);
+                vals.push(-c.normal[a]);
+                rows.push(row);
+                cols.push(3 * i + a);
+                vals.push(c.normal[a]);
+            } else {
+                rows.push(row);
+                cols.push(3 * i + a);
+                vals.push(-c.normal[a]);
+            }
+        }
+    };
+    for (row, c) in contacts.iter().enumerate() {
+        opening_of(row, c, &mut rows);
+    }
+    let m = contacts.len();
+    for k in 0..vars {
+        rows.extend([m + k, m + vars + k]);
+        cols.extend([k, k]);
+        vals.extend([1.0, -1.0]);
+    }
+    let a = CscMatrix::new_from_triplets(m + 2 * vars, vars, rows, cols, vals);
+    let mut b = vec![0.0; m];
+    b.extend(std::iter::repeat_n(1.0, 2 * vars));
+    let cones = [SupportedConeT::NonnegativeConeT(m + 2 * vars)];
+    let p = CscMatrix::zeros((vars, vars));
+    let solve = |q: &[f64]| -> (f64, String, f64) {
+        let settings = DefaultSettingsBuilder::default()
+            .verbose(false)
+            .time_limit(time_limit)
+            .build()
+            .expect("valid solver settings");
+        match DefaultSolver::new(&p, q, &a, &b, &cones, settings) {
+            Ok(mut solver) => {
+                solver.solve();
+                let s = &solver.solution;
+                let ok = matches!(s.status, SolverStatus::Solved | SolverStatus::AlmostSolved);
+                let value = if ok { -s.obj_val } else { f64::NAN };
+                (value, format!("{:?}", s.status), s.solve_time)
+            }
+            Err(e) => (f64::NAN, format!("{e:?}"), 0.0),
+        }
+    };
+    // Maximise the total opening: q = −Σ_c (opening coefficients).
+    let mut q_open = vec![0.0; vars];
+    for c in contacts {
+        let i = index[c.i as usize];
+        for a in 0..3 {
+            if let Some(j) = c.j {
+                q_open[3 * i + a] += c.normal[a];
+                q_open[3 * index[j as usize] + a] -= c.normal[a];
+            } else {
+                q_open[3 * i + a] -= c.normal[a];
+            }
+        }
+    }
+    let (opening, status_open, t_open) = solve(&q_open);
+    // A random load with zero mean along each axis (translations do no work).
+    let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);
+    let mut load: Vec<f64> = (0..vars).map(|_| rng.gen_range(-1.0..1.0)).collect();
+    for a in 0..3 {
+        let mean = load.iter().skip(a).step_by(3).sum::<f64>() / n.max(1) as f64;
+        load.iter_mut().skip(a).step_by(3).for_each(|x| *x -= mean);
+    }
+    let scale: f64 = load
+        .iter()
+        .map(|x| x.abs())
+        .sum::<f64>()
+        .max(f64::MIN_POSITIVE);
+    let q_load: Vec<f64> = load.iter().map(|x| -x).collect();
+    let (work, status_load, t_load) = solve(&q_load);
+    let opening_per_contact = opening / m.max(1) as f64;
+    let load_work = work / scale;
+    LpCertificate {
+        jammed: opening_per_contact.abs() < LP_ZERO && load_work.abs() < LP_ZERO,
+        opening_per_contact,
+        load_work,
+        status: [status_open, status_load],
+        seconds: t_open + t_load,
+    }
+}

@@ -1,0 +1,115 @@
+//! `densepack analyse PACKING`: is a sphere packing jammed? Contacts against the gap cut-off
+//! (the plateau), rattlers, the backbone's contact number, Q6 and the LP certificate of
+//! collective jamming ([`densepack::analysis::jamming`]).
+
+use clap::Args;
+use densepack::analysis::jamming::{jamming_report, JammingReport, DEFAULT_CUTOFF, Q6_FCC};
+use densepack::io::packing::Packing;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Arguments of `densepack analyse`.
+#[derive(Args, Debug)]
+pub struct AnalyseArgs {
+    /// Packing file (JSON).
+    pub packing: PathBuf,
+    /// Relative surface gap below which two spheres (or a sphere and a wall) touch.
+    #[arg(long, default_value_t = DEFAULT_CUTOFF)]
+    pub cutoff: f64,
+    /// Skip the linear-programming test of collective jamming (it takes seconds to minutes
+    /// for 10⁴ spheres).
+    #[arg(long)]
+    pub no_lp: bool,
+    /// Seconds each of the LP test's two programs may take.
+    #[arg(long, default_value_t = 600.0)]
+    pub lp_seconds: f64,
+    /// Seed of the LP test's random load.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Print the report as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Runs `analyse`: exit 0 with the report, 2 on an unreadable packing or a bad option.
+pub fn run(args: &AnalyseArgs) -> ExitCode {
+    let packing = match Packing::read(&args.packing) {
+        Ok(p) => p,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let report = match jamming_report(
+        &packing,
+        args.cutoff,
+        !args.no_lp,
+        args.seed,
+        args.lp_seconds,
+    ) {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&report).expect("serialisable")
+        );
+    } else {
+        print!("{}", text(&report));
+    }
+    ExitCode::SUCCESS
+}
+
+/// The report for people.
+fn text(r: &JammingReport) -> String {
+    let opt = |x: Option<f64>| x.map_or("–".to_string(), |v| format!("{v:.4}"));
+    let mut s = format!(
+        "spheres {}  contact cut-off {:.0e}  rigid translations {}\n",
+        r.particles, r.cutoff, r.trivial_motions
+    );
+    s += "cut-off   contacts/sphere  rattlers   backbone Z  contacts/freedom\n";
+    for row in &r.plateau {
+        s += &format!(
+            "{:>7.0e}   {:>15.4}  {:>7.2} %  {:>10}  {:>16}\n",
+            row.cutoff,
+            row.mean_contacts,
+            100.0 * row.rattler_fraction,
+            opt(row.backbone_mean_contacts),
+            opt(row.constraints_per_freedom),
+        );
+    }
+    let a = &r.at_cutoff;
+    s += &format!(
+        "at {:.0e}: rattlers {:.2} %, backbone Z {} (isostatic: 6 for a periodic packing), \
+         contacts per freedom {} (isostatic: 1)\n",
+        a.cutoff,
+        100.0 * a.rattler_fraction,
+        opt(a.backbone_mean_contacts),
+        opt(a.constraints_per_freedom)
+    );
+    s += &format!(
+        "Q6 {:.4} over {} bonds (random directions {:.4}, FCC {Q6_FCC})\n",
+        r.q6, r.bonds, r.q6_random
+    );
+    if let Some(lp) = &r.lp {
+        s += &format!(
+            "LP test: {} (largest opening per contact {:.2e}, largest load work {:.2e}; \
+             solver {} / {}, {:.1} s)\n",
+            if lp.jammed {
+                "collectively jammed"
+            } else {
+                "NOT jammed: an unjamming or floppy motion exists"
+            },
+            lp.opening_per_contact,
+            lp.load_work,
+            lp.status[0],
+            lp.status[1],
+            lp.seconds
+        );
+    }
+    s
+}
