@@ -120,7 +120,17 @@ fn cases() -> Vec<(&'static str, Vec<u8>, Vec<&'static str>)> {
         (
             "infinite events per interval",
             Parts::top("seed = 1\nevents_per_particle_per_interval = inf"),
-            vec!["events_per_particle_per_interval", "finite", "> 0"],
+            vec!["events_per_particle_per_interval", "= inf", "[1e-2, 1e3]"],
+        ),
+        (
+            "events per interval 1e300 (no barrier before the wall-clock limit)",
+            Parts::top("seed = 1\nevents_per_particle_per_interval = 1e300"),
+            vec!["events_per_particle_per_interval", "= 1e300", "[1e-2, 1e3]"],
+        ),
+        (
+            "events per interval 1e-300",
+            Parts::top("seed = 1\nevents_per_particle_per_interval = 1e-300"),
+            vec!["events_per_particle_per_interval", "[1e-2, 1e3]"],
         ),
         // Container.
         (
