@@ -7,6 +7,7 @@ pub mod boundary;
 pub mod geometry;
 pub mod io;
 pub mod kernel;
+pub mod memory;
 pub mod protocol;
 pub mod queue;
 pub mod run;

@@ -1,5 +1,6 @@
 //! The `densepack` command line. Thin: parses, calls the library, prints.
 
+#[macro_use]
 mod cli;
 
 use clap::{Parser, Subcommand};
@@ -63,6 +64,11 @@ enum Command {
         /// --checkpoint names another.
         #[arg(long, value_name = "CHECKPOINT")]
         resume: Option<PathBuf>,
+        /// Run even if the scene's memory estimate exceeds the memory available (the run
+        /// may then abort in an allocation or be killed). The same as setting
+        /// DENSEPACK_IGNORE_MEMORY_CHECK=1.
+        #[arg(long)]
+        ignore_memory_check: bool,
     },
     /// Check a packing for overlaps, gaps and containment, independently of the simulation.
     Verify {
@@ -104,9 +110,14 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    cli::out::finish(command(cli))
+}
+
+/// Runs the command line's command; the exit code.
+fn command(cli: Cli) -> ExitCode {
     match cli.command {
         None => {
-            println!("densepack: running the embedded default scene (10 000 equal spheres, periodic, grown to jamming)");
+            outln!("densepack: running the embedded default scene (10 000 equal spheres, periodic, grown to jamming)");
             let scene = Scene::from_toml(DEFAULT_SCENE).expect("the embedded scene is valid");
             let start = |on_stage: &mut OnStage, on_progress: &mut OnProgress| {
                 run_scene_observed(&scene, on_stage, on_progress)
@@ -122,28 +133,44 @@ fn main() -> ExitCode {
             checkpoint,
             checkpoint_every,
             resume,
+            ignore_memory_check,
         }) => {
+            // `parse_seconds` bounds it to what a Duration holds.
             let every = std::time::Duration::from_secs_f64(checkpoint_every);
-            if let Err(e) = check_output_path(&out) {
-                eprintln!("error: --out {}: {e}", out.display());
+            // Every output is checked before any work; a resumed run's checkpoints go on
+            // into the file it resumes from unless --checkpoint names another.
+            let mut outputs: Vec<cli::paths::Named> = vec![("--out", &out)];
+            outputs.extend(checkpoint.as_deref().map(|c| ("--checkpoint", c)));
+            outputs.extend(run_log.as_deref().map(|r| ("--run-log", r)));
+            let mut inputs: Vec<cli::paths::Named> = Vec::new();
+            inputs.extend(scene.as_deref().map(|s| ("scene", s)));
+            if let Some(r) = resume.as_deref() {
+                if checkpoint.is_none() {
+                    outputs.push(("--resume", r));
+                } else {
+                    inputs.push(("--resume", r));
+                }
+            }
+            if let Err(e) = cli::paths::check_outputs(&outputs, &inputs) {
+                errln!("error: {e}");
                 return ExitCode::from(2);
             }
-            if let Some(Err(e)) = checkpoint.as_deref().map(check_output_path) {
-                eprintln!("error: --checkpoint: {e}");
-                return ExitCode::from(2);
-            }
-            if let Some(Err(e)) = run_log.as_deref().map(check_output_path) {
-                eprintln!("error: --run-log: {e}");
-                return ExitCode::from(2);
-            }
+            let memory_checked = !(ignore_memory_check || densepack::memory::overridden());
             if let Some(path) = resume {
                 let file = match CheckpointFile::read(&path) {
                     Ok(f) => f,
                     Err(e) => {
-                        eprintln!("error: {e}");
+                        errln!("error: {e}");
                         return ExitCode::from(2);
                     }
                 };
+                if memory_checked {
+                    if let Ok(scene) = Scene::from_toml(&file.header.scene_toml) {
+                        if let Err(code) = check_memory(scene.memory_estimate()) {
+                            return code;
+                        }
+                    }
+                }
                 let plan = CheckpointPlan {
                     path: checkpoint.unwrap_or(path),
                     every,
@@ -157,11 +184,17 @@ fn main() -> ExitCode {
             let text = match std::fs::read_to_string(&scene) {
                 Ok(t) => t,
                 Err(e) => {
-                    eprintln!("error: {}: {e}", scene.display());
+                    errln!("error: {}: {e}", scene.display());
                     return ExitCode::from(2);
                 }
             };
-            match AnyScene::from_toml(&text) {
+            let parsed = AnyScene::from_toml(&text);
+            if let (Ok(scene), true) = (&parsed, memory_checked) {
+                if let Err(code) = check_memory(scene.memory_estimate()) {
+                    return code;
+                }
+            }
+            match parsed {
                 Ok(AnyScene::Spheres(s)) => {
                     let plan = checkpoint.map(|path| CheckpointPlan { path, every });
                     let start = |on_stage: &mut OnStage, on_progress: &mut OnProgress| match &plan {
@@ -173,14 +206,14 @@ fn main() -> ExitCode {
                     run(start, Some(out), quiet, log_json, run_log)
                 }
                 Ok(AnyScene::Mixture(_)) if run_log.is_some() => {
-                    eprintln!(
+                    errln!(
                         "error: --run-log: mixture scenes (RSA or relaxation) have no time \
                          barriers to log"
                     );
                     ExitCode::from(2)
                 }
                 Ok(AnyScene::Mixture(_)) if checkpoint.is_some() => {
-                    eprintln!(
+                    errln!(
                         "error: --checkpoint: mixture scenes (RSA or relaxation, no time \
                          barriers) cannot be checkpointed"
                     );
@@ -188,7 +221,7 @@ fn main() -> ExitCode {
                 }
                 Ok(AnyScene::Mixture(s)) => run_mixture(&s, &out, quiet),
                 Err(e) => {
-                    eprintln!("error: {}: {e}", scene.display());
+                    errln!("error: {}: {e}", scene.display());
                     ExitCode::from(2)
                 }
             }
@@ -209,28 +242,30 @@ fn main() -> ExitCode {
     }
 }
 
-/// A number of seconds ≥ 0.
+/// A number of seconds in `[0, MAX_WALL_SECONDS]` (0: at every time barrier), the range
+/// scene durations have: a `Duration` of more panics or overflows the clock.
 fn parse_seconds(text: &str) -> Result<f64, String> {
+    use densepack::io::scene::MAX_WALL_SECONDS;
     match text.parse::<f64>() {
-        Ok(s) if s.is_finite() && s >= 0.0 => Ok(s),
-        _ => Err(format!("`{text}` is not a number of seconds ≥ 0")),
+        Ok(s) if s.is_finite() && (0.0..=MAX_WALL_SECONDS).contains(&s) => Ok(s),
+        _ => Err(format!(
+            "`{text}` is not a number of seconds in the allowed range [0, {MAX_WALL_SECONDS:e}]"
+        )),
     }
 }
 
-/// Refuses an output path that cannot be written before a run spends hours on it: its
-/// directory must exist and the path must not be a directory.
-fn check_output_path(out: &std::path::Path) -> Result<(), String> {
-    let dir = out
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(std::path::Path::new("."));
-    if !dir.is_dir() {
-        return Err(format!("directory {} does not exist", dir.display()));
-    }
-    if out.is_dir() {
-        return Err("is a directory".into());
-    }
-    Ok(())
+/// Refuses (exit 2) a run whose memory estimate `(bytes, how)` exceeds the available
+/// memory, before anything is allocated.
+fn check_memory((needed, what): (u64, String)) -> Result<(), ExitCode> {
+    let hint = format!(
+        "--ignore-memory-check (or {}=1)",
+        densepack::memory::OVERRIDE_ENV
+    );
+    densepack::memory::check(needed, what, &hint).map_err(|e| {
+        errln!("error: the scene {e}");
+        errln!("nothing written");
+        ExitCode::from(2)
+    })
 }
 
 /// Hears of every finished stage.
@@ -256,13 +291,13 @@ fn run(
     // The log of a failed run is written too: it shows where the run got stuck.
     let logged = reporter.finish();
     if let Err(e) = &logged {
-        eprintln!("error: {e}");
+        errln!("error: {e}");
     }
     let code = match result {
         Ok(outcome) => {
             let s = &outcome.packing.stats;
             if !quiet {
-                println!(
+                outln!(
                     "particles {}  packing_fraction {:.6}  reduced_pressure {:.4e}  events {}  collisions {}  \
                      wall {:.2} s  ({:.3} M events/s)  stop {}  overlap check: ok (min gap {:.3e} of contact)",
                     outcome.packing.particles.len(),
@@ -278,19 +313,19 @@ fn run(
             }
             if let Some(path) = out {
                 if let Err(e) = outcome.packing.write(&path) {
-                    eprintln!("error: {e}");
+                    errln!("error: {e}");
                     return ExitCode::from(1);
                 }
                 if !quiet {
-                    println!("wrote {}", path.display());
+                    outln!("wrote {}", path.display());
                 }
             }
             ExitCode::SUCCESS
         }
         Err(e) => {
-            eprintln!("error: {e}");
+            errln!("error: {e}");
             match e {
-                RunError::StageFailed { .. } => eprintln!("no packing written"),
+                RunError::StageFailed { .. } => errln!("no packing written"),
                 RunError::Checkpoint(_) => return ExitCode::from(2),
                 _ => {}
             }
@@ -311,7 +346,7 @@ fn run_mixture(scene: &MixtureScene, out: &std::path::Path, quiet: bool) -> Exit
             if !quiet {
                 let fraction =
                     |k: &str| s.extra.get(k).and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
-                println!(
+                outln!(
                     "bodies {}  f_s {:.6}  f_c {:.6}  total {:.6}  method {}  wall {:.3} s  \
                      overlap check: ok (min gap {:.3e})",
                     outcome.packing.particles.len(),
@@ -324,17 +359,17 @@ fn run_mixture(scene: &MixtureScene, out: &std::path::Path, quiet: bool) -> Exit
                 );
             }
             if let Err(e) = outcome.packing.write(out) {
-                eprintln!("error: {e}");
+                errln!("error: {e}");
                 return ExitCode::from(1);
             }
             if !quiet {
-                println!("wrote {}", out.display());
+                outln!("wrote {}", out.display());
             }
             ExitCode::SUCCESS
         }
         Err(e) => {
-            eprintln!("error: {e}");
-            eprintln!("no packing written");
+            errln!("error: {e}");
+            errln!("no packing written");
             ExitCode::from(1)
         }
     }

@@ -180,8 +180,11 @@ impl<'a> Checkpointer<'a> {
         }
         let header = CheckpointHeader::new(self.scene_toml, stage, progress, reports);
         if let Err(e) = write_checkpoint(&self.plan.path, &header, &kernel.snapshot()) {
-            // The run goes on: a failed checkpoint costs insurance, not the result.
-            eprintln!(
+            // The run goes on: a failed checkpoint costs insurance, not the result (and a
+            // closed stderr must not stop it either, which `eprintln!` would by panicking).
+            use std::io::Write;
+            let _ = writeln!(
+                std::io::stderr(),
                 "warning: checkpoint {} not written: {e}",
                 self.plan.path.display()
             );

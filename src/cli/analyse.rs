@@ -36,7 +36,7 @@ pub fn run(args: &AnalyseArgs) -> ExitCode {
     let packing = match Packing::read(&args.packing) {
         Ok(p) => p,
         Err(e) => {
-            eprintln!("error: {e}");
+            errln!("error: {e}");
             return ExitCode::from(2);
         }
     };
@@ -49,17 +49,17 @@ pub fn run(args: &AnalyseArgs) -> ExitCode {
     ) {
         Ok(r) => r,
         Err(e) => {
-            eprintln!("error: {e}");
+            errln!("error: {e}");
             return ExitCode::from(2);
         }
     };
     if args.json {
-        println!(
+        outln!(
             "{}",
             serde_json::to_string_pretty(&report).expect("serialisable")
         );
     } else {
-        print!("{}", text(&report));
+        out!("{}", text(&report));
     }
     ExitCode::SUCCESS
 }

@@ -31,7 +31,7 @@ pub struct BenchArgs {
 pub fn run(args: &BenchArgs) -> ExitCode {
     if args.list {
         for s in STUDIES {
-            println!(
+            outln!(
                 "{:<20} {}{}",
                 s.name,
                 s.summary,
@@ -47,17 +47,17 @@ pub fn run(args: &BenchArgs) -> ExitCode {
     let studies = match select(args.only.as_deref()) {
         Ok(s) => s,
         Err(e) => {
-            eprintln!("error: --only: {e}");
+            errln!("error: --only: {e}");
             return ExitCode::from(2);
         }
     };
     if cfg!(debug_assertions) {
-        eprintln!("warning: a debug build; benchmark numbers need `cargo build --release`");
+        errln!("warning: a debug build; benchmark numbers need `cargo build --release`");
     }
     let exe = match std::env::current_exe() {
         Ok(p) => p.to_string_lossy().into_owned(),
         Err(e) => {
-            eprintln!("error: cannot find this program's path for the memory child: {e}");
+            errln!("error: cannot find this program's path for the memory child: {e}");
             return ExitCode::from(1);
         }
     };
@@ -72,11 +72,11 @@ pub fn run(args: &BenchArgs) -> ExitCode {
     };
     match run_report(&options) {
         Ok(path) => {
-            println!("wrote {}", path.display());
+            outln!("wrote {}", path.display());
             ExitCode::SUCCESS
         }
         Err(e) => {
-            eprintln!("error: --out {}: {e}", args.out.display());
+            errln!("error: --out {}: {e}", args.out.display());
             ExitCode::from(1)
         }
     }
@@ -86,11 +86,11 @@ pub fn run(args: &BenchArgs) -> ExitCode {
 pub fn child_memory(args: &[String]) -> ExitCode {
     match densepack::bench::edmd::child_memory(args) {
         Ok(lines) => {
-            print!("{lines}");
+            out!("{lines}");
             ExitCode::SUCCESS
         }
         Err(e) => {
-            eprintln!("error: {e}");
+            errln!("error: {e}");
             ExitCode::FAILURE
         }
     }

@@ -107,15 +107,50 @@ pub fn run(args: &ExportArgs) -> ExitCode {
     let packing = match Packing::read(&args.packing) {
         Ok(p) => p,
         Err(e) => {
-            eprintln!("error: {e}");
+            errln!("error: {e}");
             return ExitCode::from(2);
         }
     };
     if let Err(e) = reject_unused(args) {
-        eprintln!("error: {e}");
+        errln!("error: {e}");
         return ExitCode::from(2);
     }
     let out = &args.out;
+    let voxel = matches!(args.format, FormatArg::Npy | FormatArg::Raw);
+    let sidecar = voxel::sidecar_path(out);
+    let mut outputs: Vec<super::paths::Named> = vec![("--out", out)];
+    if voxel {
+        outputs.push(("the sidecar (--out + .json)", &sidecar));
+    }
+    if let Err(e) = super::paths::check_outputs(&outputs, &[("packing", &args.packing)]) {
+        errln!("error: {e}");
+        return ExitCode::from(2);
+    }
+    if voxel && !densepack::memory::overridden() {
+        // The image is built whole in memory before it is written.
+        if let Ok(grid) = voxel::Grid::new(&packing.container, args.voxels) {
+            let each = match (args.partial_volume, args.labels) {
+                (None, LabelsArg::Phase) => 1,
+                _ => 4,
+            };
+            let what = format!(
+                "{} voxels × {each} B + the packing's {} particles",
+                grid.len(),
+                packing.particles.len()
+            );
+            let needed = densepack::memory::estimate(grid.len() as f64, each).saturating_add(
+                densepack::memory::estimate(
+                    packing.particles.len() as f64,
+                    densepack::memory::SPHERE_BYTES,
+                ),
+            );
+            let hint = format!("{}=1", densepack::memory::OVERRIDE_ENV);
+            if let Err(e) = densepack::memory::check(needed, what, &hint) {
+                errln!("error: --voxels {}: the image {e}", args.voxels);
+                return ExitCode::from(2);
+            }
+        }
+    }
     let result = match args.format {
         FormatArg::Gmsh => gmsh::write_geo(
             &packing,
@@ -179,15 +214,15 @@ pub fn run(args: &ExportArgs) -> ExitCode {
     };
     match result {
         Ok(msg) => {
-            println!("{msg}");
+            outln!("{msg}");
             ExitCode::SUCCESS
         }
         Err(e @ ExportError::Invalid { .. }) => {
-            eprintln!("error: {e}");
+            errln!("error: {e}");
             ExitCode::from(2)
         }
         Err(e) => {
-            eprintln!("error: {e}");
+            errln!("error: {e}");
             ExitCode::from(1)
         }
     }

@@ -47,24 +47,29 @@ pub fn run(args: &InitArgs) -> ExitCode {
     };
     match &args.out {
         None => {
-            print!("{text}");
+            out!("{text}");
             ExitCode::SUCCESS
         }
         Some(path) if path.exists() => {
-            eprintln!("error: {} exists; not overwritten", path.display());
+            errln!("error: {} exists; not overwritten", path.display());
             ExitCode::from(2)
         }
-        Some(path) => match write_atomically(path, |w| w.write_all(text.as_bytes())) {
+        Some(path) => match super::paths::check_outputs(&[("--out", path)], &[])
+            .map_err(|e| (e, 2))
+            .and_then(|()| {
+                write_atomically(path, |w| w.write_all(text.as_bytes()))
+                    .map_err(|e| (format!("{}: {e}", path.display()), 1))
+            }) {
             Ok(()) => {
-                println!(
+                outln!(
                     "wrote {} (run it with: densepack run {0} --out packing.json)",
                     path.display()
                 );
                 ExitCode::SUCCESS
             }
-            Err(e) => {
-                eprintln!("error: {}: {e}", path.display());
-                ExitCode::from(1)
+            Err((e, code)) => {
+                errln!("error: {e}");
+                ExitCode::from(code)
             }
         },
     }

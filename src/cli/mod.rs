@@ -1,9 +1,14 @@
 //! Subcommands of the `densepack` binary that live outside `main.rs`.
 
+// First: its printing macros serve every module after it.
+#[macro_use]
+pub mod out;
+
 pub mod analyse;
 pub mod bench;
 pub mod export;
 pub mod init;
+pub mod paths;
 pub mod plot;
 pub mod progress;
 pub mod take;

@@ -103,14 +103,14 @@ impl<E: std::error::Error + Send + Sync> From<DrawingAreaErrorKind<E>> for PlotE
 
 /// Runs `plot`.
 pub fn run(args: &PlotArgs) -> ExitCode {
-    let out = match &args.kind {
-        PlotKind::Sieve { out, .. }
-        | PlotKind::Sizes { out, .. }
-        | PlotKind::Section { out, .. }
-        | PlotKind::Convergence { out, .. } => out,
+    let (out, input) = match &args.kind {
+        PlotKind::Sieve { out, packing, .. }
+        | PlotKind::Sizes { out, packing, .. }
+        | PlotKind::Section { out, packing, .. } => (out, ("packing", packing.as_path())),
+        PlotKind::Convergence { out, run_log } => (out, ("run log", run_log.as_path())),
     };
-    let result = crate::check_output_path(out)
-        .map_err(|e| PlotError::Input(format!("--out {}: {e}", out.display())))
+    let result = super::paths::check_outputs(&[("--out", out)], &[input])
+        .map_err(PlotError::Input)
         .and_then(|()| render(&args.kind))
         .and_then(|svg| {
             write_atomically(out, |w| std::io::Write::write_all(w, svg.as_bytes()))
@@ -118,15 +118,15 @@ pub fn run(args: &PlotArgs) -> ExitCode {
         });
     match result {
         Ok(()) => {
-            println!("wrote {}", out.display());
+            outln!("wrote {}", out.display());
             ExitCode::SUCCESS
         }
         Err(PlotError::Input(e)) => {
-            eprintln!("error: {e}");
+            errln!("error: {e}");
             ExitCode::from(2)
         }
         Err(PlotError::Write(e)) => {
-            eprintln!("error: {e}");
+            errln!("error: {e}");
             ExitCode::from(1)
         }
     }

@@ -126,7 +126,7 @@ impl Reporter {
         }
         self.last_tick = Some(now);
         match &self.sink {
-            Sink::Json => eprintln!("{}", progress_record(stage, p)),
+            Sink::Json => errln!("{}", progress_record(stage, p)),
             Sink::Bar(bar) => {
                 let record = progress_record(stage, p);
                 let eta = record["eta_seconds"].as_f64();
@@ -151,8 +151,8 @@ impl Reporter {
         }
         match &self.sink {
             Sink::Quiet => {}
-            Sink::Json => eprintln!("{}", stage_record(k, r)),
-            Sink::Plain => eprintln!("{line}"),
+            Sink::Json => errln!("{}", stage_record(k, r)),
+            Sink::Plain => errln!("{line}"),
             Sink::Bar(bar) => bar.println(line),
         }
     }

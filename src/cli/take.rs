@@ -203,11 +203,37 @@ pub fn run(args: &TakeArgs) -> ExitCode {
     let (take, name, spec) = match prepared {
         Ok(t) => t,
         Err(e) => {
-            eprintln!("error: {e}");
+            errln!("error: {e}");
             return ExitCode::from(2);
         }
     };
     let s = take.summary();
+    let mut outputs: Vec<super::paths::Named> = Vec::new();
+    outputs.extend(args.sizes.as_deref().map(|p| ("--sizes", p)));
+    outputs.extend(args.scene.as_deref().map(|p| ("--scene", p)));
+    let curve_file = Path::new(&args.curve);
+    let inputs: Vec<super::paths::Named> = if curve_file.is_file() {
+        vec![("curve file", curve_file)]
+    } else {
+        Vec::new()
+    };
+    if let Err(e) = super::paths::check_outputs(&outputs, &inputs) {
+        errln!("error: {e}");
+        return ExitCode::from(2);
+    }
+    if !outputs.is_empty() && !densepack::memory::overridden() {
+        // The draw holds every diameter (8 B) and, for --sizes, its line of text (≤ 25 B).
+        let count = s.expected_count + 4.0 * s.count_std_dev;
+        let each = if args.sizes.is_some() { 33 } else { 8 };
+        let hint = format!("{}=1", densepack::memory::OVERRIDE_ENV);
+        let what = format!("{count:.4e} diameters × {each} B");
+        if let Err(e) =
+            densepack::memory::check(densepack::memory::estimate(count, each), what, &hint)
+        {
+            errln!("error: drawing the diameters {e}");
+            return ExitCode::from(2);
+        }
+    }
     let mut drawn = None;
     if args.sizes.is_some() || args.scene.is_some() {
         let diameters = take.sample(&mut Xoshiro256PlusPlus::seed_from_u64(args.seed));
@@ -226,14 +252,14 @@ pub fn run(args: &TakeArgs) -> ExitCode {
             match scene_text(args, &name, &spec, &diameters, phi) {
                 Ok(text) => files.push((path, text)),
                 Err(e) => {
-                    eprintln!("error: {e}");
+                    errln!("error: {e}");
                     return ExitCode::from(2);
                 }
             }
         }
         for (path, text) in files {
             if let Err(e) = write_atomically(path, |w| w.write_all(text.as_bytes())) {
-                eprintln!("error: {}: {e}", path.display());
+                errln!("error: {}: {e}", path.display());
                 return ExitCode::from(1);
             }
         }
@@ -255,48 +281,55 @@ pub fn run(args: &TakeArgs) -> ExitCode {
             "reference_reachable_phi_eff": {"rsa": s.rsa_reachable_phi_eff, "edmd": s.edmd_reachable_phi_eff},
             "drawn": drawn.map(|(n, phi)| serde_json::json!({"seed": args.seed, "count": n, "phi": phi})),
         });
-        println!(
+        outln!(
             "{}",
             serde_json::to_string_pretty(&json).expect("serialisable")
         );
     } else {
-        println!("grading curve       {name}");
-        println!(
+        outln!("grading curve       {name}");
+        outln!(
             "specimen            V = {:.1} mm³, φ_M = {}, d_min = {} mm",
-            s.container_volume, s.phi_m, args.d_min
+            s.container_volume,
+            s.phi_m,
+            args.d_min
         );
-        println!(
+        outln!(
             "cut-off             F(d_min) = {:.4} of the aggregate mass is mortar",
             s.cutoff_fraction
         );
-        println!(
+        outln!(
             "effective fraction  φ_eff = φ_M (1 − F(d_min)) = {:.4} ({:.1} mm³ of aggregate)",
-            s.phi_eff, s.aggregate_volume
+            s.phi_eff,
+            s.aggregate_volume
         );
-        println!(
+        outln!(
             "particles           N ≈ {:.0} ± {:.0}, diameters {} – {} mm",
-            s.expected_count, s.count_std_dev, s.smallest_diameter, s.largest_diameter
+            s.expected_count,
+            s.count_std_dev,
+            s.smallest_diameter,
+            s.largest_diameter
         );
-        println!(
+        outln!(
             "memory estimate     ≈ {:.1} MB ({BYTES_PER_PARTICLE} bytes per particle)",
             s.estimated_memory_bytes as f64 / 1e6
         );
-        println!(
+        outln!(
             "reachable φ_eff     RSA ≈ {}, EDMD ≈ {} (Titscher & Unger, Fuller q = 0.5, 2–16 mm, \
              80 mm walled cube; a reference, not a promise for other curves)",
-            s.rsa_reachable_phi_eff, s.edmd_reachable_phi_eff
+            s.rsa_reachable_phi_eff,
+            s.edmd_reachable_phi_eff
         );
         if s.phi_eff > s.edmd_reachable_phi_eff {
-            println!("warning             φ_eff is above what EDMD reached in that reference");
+            outln!("warning             φ_eff is above what EDMD reached in that reference");
         }
         if let Some((n, phi)) = drawn {
-            println!(
+            outln!(
                 "drawn               {n} diameters (seed {}), φ = {phi:.4}",
                 args.seed
             );
         }
         for path in [&args.sizes, &args.scene].into_iter().flatten() {
-            println!("wrote               {}", path.display());
+            outln!("wrote               {}", path.display());
         }
     }
     ExitCode::SUCCESS

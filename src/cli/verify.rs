@@ -46,7 +46,7 @@ pub fn run(path: &Path, json: bool, grading: Option<&str>, d_min: Option<f64>) -
     let packing = match Packing::read(path) {
         Ok(p) => p,
         Err(e) => {
-            eprintln!("error: {e}");
+            errln!("error: {e}");
             return ExitCode::from(2);
         }
     };
@@ -54,7 +54,7 @@ pub fn run(path: &Path, json: bool, grading: Option<&str>, d_min: Option<f64>) -
         None => None,
         Some(Ok(s)) => Some(s),
         Some(Err(e)) => {
-            eprintln!("error: {e}");
+            errln!("error: {e}");
             return ExitCode::from(2);
         }
     };
@@ -68,12 +68,12 @@ pub fn run(path: &Path, json: bool, grading: Option<&str>, d_min: Option<f64>) -
                 "curve": name, "d_min": d_min, "points": points, "max_deviation": worst,
             });
         }
-        println!(
+        outln!(
             "{}",
             serde_json::to_string_pretty(&value).expect("serialisable")
         );
     } else {
-        println!(
+        outln!(
             "particles {}  packing_fraction {:.6}  min pair gap {:.3e} (relative {:.3e})  min wall gap {}  violations {}",
             v.particles,
             v.packing_fraction,
@@ -83,19 +83,19 @@ pub fn run(path: &Path, json: bool, grading: Option<&str>, d_min: Option<f64>) -
             v.violation_count
         );
         for msg in &v.violations {
-            println!("  {msg}");
+            outln!("  {msg}");
         }
-        println!("nearest relative gap per particle (|c_i − c_j|/(r_i + r_j) − 1):");
+        outln!("nearest relative gap per particle (|c_i − c_j|/(r_i + r_j) − 1):");
         for b in histogram.iter().filter(|b| b.count > 0) {
-            println!("  [{:>8.0e}, {:>8.0e})  {}", b.lo, b.hi, b.count);
+            outln!("  [{:>8.0e}, {:>8.0e})  {}", b.lo, b.hi, b.count);
         }
         if let Some((name, d_min, points, worst)) = &sieve {
-            println!("sieve curve against {name}, cut off at d_min = {d_min}:");
-            println!("  {:>10}  {:>9}  {:>9}", "sieve", "passing", "target");
+            outln!("sieve curve against {name}, cut off at d_min = {d_min}:");
+            outln!("  {:>10}  {:>9}  {:>9}", "sieve", "passing", "target");
             for p in points {
-                println!("  {:>10.4}  {:>9.4}  {:>9.4}", p.size, p.passing, p.target);
+                outln!("  {:>10.4}  {:>9.4}  {:>9.4}", p.size, p.passing, p.target);
             }
-            println!("  largest deviation {worst:.4}");
+            outln!("  largest deviation {worst:.4}");
         }
     }
     if v.ok() {

@@ -513,6 +513,75 @@ fn positive(field: &str, x: f64) -> Result<(), SceneError> {
     }
 }
 
+/// Allowed temperature `kT`. Time runs in units of `ℓ·√(m/kT)`: `kT` sets only the thermal
+/// speed `√(kT/m)` against the growth rates, so a stage needs about `√kT` times the events it
+/// needs at `kT = 1` to grow as far (measured: 100 spheres jammed at rate 0.1 in 43 000
+/// events at `kT = 1` had reached φ = 0.51 only after 14 M events at `kT = 10⁸`). Within
+/// `[10⁻⁶, 10⁶]` a run stays within 10³ of that effort, and every speed, energy and virial
+/// far inside `f64`; beyond it, the same run is a lower or higher rate at `kT = 1`.
+pub const TEMPERATURE_RANGE: [f64; 2] = [1e-6, 1e6];
+
+/// Allowed growth rate per unit time, relative (`growth = "relative"`, 1/time) or in smallest
+/// diameters (`growth = "absolute"`, length/time divided by the smallest diameter).
+/// Above 10⁶ the growth outruns the thermal motion by so much that the packing no longer
+/// changes (measured: 100 spheres jam at φ 0.612–0.621 for every rate from 10⁴ to 10¹⁵⁰);
+/// near 10¹⁵⁴ the squares of the speeds overflow `f64` and the run stalls or hangs (10³⁰⁸).
+/// Below 10⁻⁶ a radius gains less than a millionth per unit time: the run needs more than
+/// 10⁴ times the events of the usual rates (10⁻²) to grow as far.
+pub const RATE_RANGE: [f64; 2] = [1e-6, 1e6];
+
+/// Allowed `events_per_particle_per_interval`. A stage checks its goals and limits only at
+/// time barriers, and an interval ends early only after 16 times its planned events: at
+/// 10³⁰⁰ a jamming run never reached a barrier (measured: 11 M events for 100 spheres until
+/// its wall-clock limit stopped it). 1–16 were measured (BENCHMARKS.md, tuning); the range
+/// leaves two to three orders of magnitude either side.
+pub const EVENTS_PER_INTERVAL_RANGE: [f64; 2] = [1e-2, 1e3];
+
+/// Longest wall-clock limit (seconds) a scene or option may give: about 31 years. Durations
+/// are converted to the platform's clock, which panics beyond ~5.8·10¹¹ years (`Duration`)
+/// and overflows far earlier when added to the current instant.
+pub const MAX_WALL_SECONDS: f64 = 1e9;
+
+/// A number as a message shows it: plainly between 10⁻⁴ and 10⁶, else in exponent form
+/// (`1e308`, not 309 digits).
+fn show(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() || (1e-4..1e6).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// A wall-clock limit in `(0, MAX_WALL_SECONDS]`.
+pub fn wall_seconds(field: &str, x: f64) -> Result<(), SceneError> {
+    if x.is_finite() && x > 0.0 && x <= MAX_WALL_SECONDS {
+        Ok(())
+    } else {
+        Err(invalid(
+            field,
+            format!(
+                "= {} is outside the allowed range (0, {MAX_WALL_SECONDS:e}] seconds",
+                show(x)
+            ),
+        ))
+    }
+}
+
+/// A value in `[lo, hi]`, naming the field and the range with `reason` when it is not.
+fn within(field: &str, x: f64, [lo, hi]: [f64; 2], reason: &str) -> Result<(), SceneError> {
+    if x.is_finite() && x >= lo && x <= hi {
+        Ok(())
+    } else {
+        Err(invalid(
+            field,
+            format!(
+                "= {} is outside the allowed range [{lo:e}, {hi:e}]{reason}",
+                show(x)
+            ),
+        ))
+    }
+}
+
 fn fraction(field: &str, x: f64) -> Result<(), SceneError> {
     if x.is_finite() && x > 0.0 && x < 1.0 {
         Ok(())
@@ -658,6 +727,31 @@ impl Scene {
         })
     }
 
+    /// Estimated peak memory of the run in bytes ([`crate::memory`]), and how it was formed.
+    /// A grading curve counts its expected number of grains plus four standard deviations.
+    /// The scene must be valid.
+    pub fn memory_estimate(&self) -> (u64, String) {
+        let count = match self.particle_count() {
+            Some(n) => n as f64,
+            None => self.take_phase().and_then(Result::ok).map_or(0.0, |t| {
+                let s = t.summary();
+                s.expected_count + 4.0 * s.count_std_dev
+            }),
+        };
+        let (each, kind) = if self.particles.ellipsoid.is_some() {
+            (crate::memory::ELLIPSOID_BYTES, "ellipsoids")
+        } else {
+            (crate::memory::SPHERE_BYTES, "spheres")
+        };
+        (
+            crate::memory::estimate(count, each),
+            format!(
+                "{count:.4e} {kind} × {each} B + {} for the process",
+                crate::memory::human(crate::memory::BASE_BYTES)
+            ),
+        )
+    }
+
     /// Volume of the container.
     pub fn container_volume(&self) -> f64 {
         match &self.container {
@@ -676,10 +770,20 @@ impl Scene {
 
     /// Checks every field against its allowed range.
     pub fn validate(&self) -> Result<(), SceneError> {
-        positive("temperature", self.temperature)?;
-        positive(
+        within(
+            "temperature",
+            self.temperature,
+            TEMPERATURE_RANGE,
+            ": kT only sets the thermal speed against the growth rates (time is in units of \
+             ℓ·√(m/kT)); a run at kT = 10⁸ needs 10⁴ times the events of kT = 1. Keep kT = 1 \
+             and scale the rates instead",
+        )?;
+        within(
             "events_per_particle_per_interval",
             self.events_per_particle_per_interval,
+            EVENTS_PER_INTERVAL_RANGE,
+            ": goals are checked at time barriers, and an interval of more events reaches \
+             them too late (default 4)",
         )?;
         if !(self.neighbour_skin > 0.0 && self.neighbour_skin <= MAX_SKIN) {
             return Err(invalid(
@@ -1001,7 +1105,33 @@ impl Scene {
                 }
                 (GrowthKind::None, None) => {}
                 (_, None) => return Err(invalid(f("rate"), "is required when the particles grow")),
-                (_, Some(r)) => positive(&f("rate"), r)?,
+                (GrowthKind::Relative, Some(r)) => within(
+                    &f("rate"),
+                    r,
+                    RATE_RANGE,
+                    " per unit time (relative growth): faster growth leaves the packing \
+                     unchanged and overflows the speeds, slower growth cannot finish",
+                )?,
+                (GrowthKind::Absolute, Some(r)) => {
+                    // In smallest diameters per unit time, so that a scene in other units
+                    // (every length ×10^k) has the same range.
+                    let [lo, hi] = RATE_RANGE.map(|x| x * sizes.d_min);
+                    if !(r.is_finite() && r >= lo && r <= hi) {
+                        return Err(invalid(
+                            f("rate"),
+                            format!(
+                                "= {} is outside the allowed range [{lo:e}, {hi:e}] lengths \
+                                 per unit time (absolute growth: {:e} to {:e} times the \
+                                 smallest diameter {}): faster growth leaves the packing \
+                                 unchanged and overflows the speeds, slower growth cannot finish",
+                                show(r),
+                                RATE_RANGE[0],
+                                RATE_RANGE[1],
+                                sizes.d_min
+                            ),
+                        ));
+                    }
+                }
             }
             let u = &s.until;
             if u.packing_fraction.is_none()
@@ -1059,7 +1189,7 @@ impl Scene {
                 positive(&f("until.collisions_per_particle"), x)?;
             }
             if let Some(x) = s.max_wall_seconds {
-                positive(&f("max_wall_seconds"), x)?;
+                wall_seconds(&f("max_wall_seconds"), x)?;
             }
             if s.max_events == Some(0) {
                 return Err(invalid(f("max_events"), "= 0 must be ≥ 1"));
@@ -1542,6 +1672,20 @@ impl MixtureScene {
         }
     }
 
+    /// Estimated peak memory of the generation in bytes ([`crate::memory`]), and how it was
+    /// formed.
+    pub fn memory_estimate(&self) -> (u64, String) {
+        let bodies = self.mixture.spheres as f64 + self.mixture.cylinders as f64;
+        let each = crate::memory::MIXTURE_BODY_BYTES;
+        (
+            crate::memory::estimate(bodies, each),
+            format!(
+                "{bodies:.4e} bodies × {each} B + {} for the process",
+                crate::memory::human(crate::memory::BASE_BYTES)
+            ),
+        )
+    }
+
     /// Checks every field, naming it (`mixture.cylinders`, `mixture.relax.damping`, …).
     pub fn validate(&self) -> Result<(), SceneError> {
         let to_scene = |e: crate::protocol::mixture::MixtureError| match e {
@@ -1558,7 +1702,7 @@ impl MixtureScene {
         }
         self.spec().validate().map_err(to_scene)?;
         if let Some(t) = self.mixture.time_limit_seconds {
-            positive("mixture.time_limit_seconds", t)?;
+            wall_seconds("mixture.time_limit_seconds", t)?;
         }
         if self.mixture.max_attempts_per_body == 0 {
             return Err(invalid(
@@ -1580,6 +1724,14 @@ pub enum AnyScene {
 }
 
 impl AnyScene {
+    /// Estimated peak memory of the run in bytes, and how it was formed.
+    pub fn memory_estimate(&self) -> (u64, String) {
+        match self {
+            AnyScene::Spheres(s) => s.memory_estimate(),
+            AnyScene::Mixture(m) => m.memory_estimate(),
+        }
+    }
+
     /// Parses and validates either kind of scene.
     pub fn from_toml(text: &str) -> Result<Self, SceneError> {
         let table: toml::Table =

@@ -122,9 +122,10 @@ use std::f64::consts::PI;
 use rand::Rng;
 use serde::Deserialize;
 
-/// Bytes of memory per particle assumed by [`TakeSummary::estimated_memory_bytes`]: a rough
-/// budget for the particle state, event lists and cell structures of the place phase.
-pub const BYTES_PER_PARTICLE: u64 = 200;
+/// Bytes of memory per particle assumed by [`TakeSummary::estimated_memory_bytes`]: the
+/// measured peak of a sphere run ([`crate::memory::SPHERE_BYTES`]), the figure `densepack run`
+/// checks a scene against before it allocates.
+pub const BYTES_PER_PARTICLE: u64 = crate::memory::SPHERE_BYTES;
 
 /// Effective volume fraction reached by random sequential addition in the paper's packing
 /// experiment (Titscher & Unger, §6.2, Fig. 7b): Fuller's curve `q = 0.5`, `d_max = 16` mm,
@@ -707,7 +708,8 @@ pub struct TakeSummary {
     pub smallest_diameter: f64,
     /// Largest diameter that can be drawn (mm).
     pub largest_diameter: f64,
-    /// Memory estimate for the place phase: `ceil(expected_count) ×` [`BYTES_PER_PARTICLE`].
+    /// Memory estimate for the place phase: `ceil(expected_count) ×` [`BYTES_PER_PARTICLE`]
+    /// plus the process's base ([`crate::memory::estimate`]).
     pub estimated_memory_bytes: u64,
     /// Reference only: [`RSA_REACHABLE_PHI_EFF`].
     pub rsa_reachable_phi_eff: f64,
@@ -846,8 +848,7 @@ impl TakePhase {
             aggregate_volume: phi_eff * self.params.volume,
             smallest_diameter: self.classes.last().map_or(self.params.d_min, |c| c.lo),
             largest_diameter: self.classes.first().map_or(self.params.d_min, |c| c.hi),
-            estimated_memory_bytes: (expected_count.ceil() as u64)
-                .saturating_mul(BYTES_PER_PARTICLE),
+            estimated_memory_bytes: crate::memory::estimate(expected_count, BYTES_PER_PARTICLE),
             rsa_reachable_phi_eff: RSA_REACHABLE_PHI_EFF,
             edmd_reachable_phi_eff: EDMD_REACHABLE_PHI_EFF,
         }

@@ -1,0 +1,141 @@
+//! Memory a job needs, estimated before anything is allocated, against the memory the
+//! machine has available.
+//!
+//! A scene of 10⁹ tiny particles is valid geometry, but its run would abort in an allocation
+//! (or be killed by the kernel's out-of-memory killer) minutes into the seeding. The
+//! estimates here are per particle (or voxel) times the measured peak of a whole process, so
+//! such a job is refused before it starts, with the estimate and the limit.
+
+/// Peak resident memory of a sphere run per particle: seeding, kernel, verification and
+/// the packing record. Measured 296 B at 10⁶ spheres (calendar queue,
+/// `densepack bench-child-memory 1000000 calendar`, BENCHMARKS.md "memory") and 306 B at
+/// 4·10⁴ (`/usr/bin/time -v`), rounded up.
+pub const SPHERE_BYTES: u64 = 320;
+
+/// Peak resident memory of an ellipsoid run per particle: 709 B measured at 4·10⁴ prolate
+/// ellipsoids (φ = 0.1, periodic box, `/usr/bin/time -v`, over the empty process), rounded
+/// up.
+pub const ELLIPSOID_BYTES: u64 = 750;
+
+/// Peak resident memory of a sphere + cylinder mixture per body: 238 B (RSA) and 571 B
+/// (relaxer) measured at 2·10⁴ spheres + 2·10⁴ cylinders, rounded up to the larger.
+pub const MIXTURE_BODY_BYTES: u64 = 600;
+
+/// Resident memory of the process before the first particle (measured 5.7 MiB for a run of
+/// ten spheres), rounded up.
+pub const BASE_BYTES: u64 = 8 << 20;
+
+/// The environment variable that skips the check ([`check`]) when set to `1`.
+pub const OVERRIDE_ENV: &str = "DENSEPACK_IGNORE_MEMORY_CHECK";
+
+/// Estimated peak memory of a job of `count` items of `bytes_each`, with the process's
+/// own base. Saturates instead of overflowing (a count of 10³⁰ is simply too much).
+pub fn estimate(count: f64, bytes_each: u64) -> u64 {
+    let items = if count.is_finite() && count > 0.0 {
+        // `as` saturates at u64::MAX for counts beyond it.
+        count.ceil() as u64
+    } else if count > 0.0 {
+        u64::MAX
+    } else {
+        0
+    };
+    items.saturating_mul(bytes_each).saturating_add(BASE_BYTES)
+}
+
+/// Memory the machine can give a new job without swapping: `MemAvailable` of
+/// `/proc/meminfo` (Linux). `None` where it is not known; then nothing is checked.
+pub fn available_bytes() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    available_in_meminfo(&text)
+}
+
+/// The `MemAvailable` line of a `/proc/meminfo` text, in bytes.
+fn available_in_meminfo(text: &str) -> Option<u64> {
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let mut words = line.split_whitespace().skip(1);
+    let value: u64 = words.next()?.parse().ok()?;
+    match words.next() {
+        Some("kB") => value.checked_mul(1024),
+        None => Some(value),
+        Some(_) => None,
+    }
+}
+
+/// A job whose estimate exceeds the available memory.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "needs about {} of memory (estimate: {what}), but only {} is available \
+     (MemAvailable); use fewer or larger particles, or run anyway with {override_hint}",
+    human(*needed),
+    human(*available)
+)]
+pub struct TooLarge {
+    /// The estimate, bytes.
+    pub needed: u64,
+    /// The available memory, bytes.
+    pub available: u64,
+    /// How the estimate was formed (`10⁹ spheres × 320 B + 8 MiB`).
+    pub what: String,
+    /// The option or variable that skips the check.
+    pub override_hint: String,
+}
+
+/// Refuses a job of `needed` bytes when the machine has less available (unknown: accepted).
+/// `what` says how the estimate was formed; `override_hint` how to skip the check.
+pub fn check(needed: u64, what: String, override_hint: &str) -> Result<(), TooLarge> {
+    match available_bytes() {
+        Some(available) if needed > available => Err(TooLarge {
+            needed,
+            available,
+            what,
+            override_hint: override_hint.into(),
+        }),
+        _ => Ok(()),
+    }
+}
+
+/// Whether [`OVERRIDE_ENV`] asks to skip the check.
+pub fn overridden() -> bool {
+    std::env::var(OVERRIDE_ENV).is_ok_and(|v| v == "1")
+}
+
+/// Bytes as a short decimal figure (`1.2 GB`).
+pub fn human(bytes: u64) -> String {
+    let b = bytes as f64;
+    for (unit, scale) in [("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)] {
+        if b >= scale {
+            return format!("{:.1} {unit}", b / scale);
+        }
+    }
+    format!("{bytes} B")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn meminfo_is_read_in_kibibytes() {
+        let text = "MemTotal:       32768000 kB\nMemFree:  100 kB\nMemAvailable:   24264752 kB\n";
+        assert_eq!(available_in_meminfo(text), Some(24_264_752 * 1024));
+        assert_eq!(available_in_meminfo("MemTotal: 5 kB\n"), None);
+        assert_eq!(available_in_meminfo("MemAvailable: 12 MB\n"), None);
+    }
+
+    #[test]
+    fn estimates_saturate_instead_of_overflowing() {
+        assert_eq!(estimate(0.0, 320), BASE_BYTES);
+        assert_eq!(estimate(1e6, 320), 320_000_000 + BASE_BYTES);
+        assert_eq!(estimate(2.5, 100), 300 + BASE_BYTES);
+        assert_eq!(estimate(1e30, 320), u64::MAX);
+        assert_eq!(estimate(f64::INFINITY, 1), u64::MAX);
+        assert_eq!(estimate(f64::NAN, 1), BASE_BYTES);
+    }
+
+    #[test]
+    fn human_figures() {
+        assert_eq!(human(999), "999 B");
+        assert_eq!(human(320_000_000_000), "320.0 GB");
+        assert_eq!(human(1_500_000), "1.5 MB");
+    }
+}
