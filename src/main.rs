@@ -78,6 +78,11 @@ enum Command {
         /// Cut-off diameter of the grading comparison (default: the smallest sphere).
         #[arg(long, requires = "grading")]
         d_min: Option<f64>,
+        /// Relative tolerance of the overlap and gap tests, in [0, 0.01]: a pair overlaps when
+        /// its centres are closer than (1 − TOL)·(r_i + r_j). Never taken from the file.
+        #[arg(long, value_name = "TOL", default_value_t = densepack::verify::TOLERANCE,
+              allow_hyphen_values = true, value_parser = parse_tolerance)]
+        tolerance: f64,
     },
     /// Export a packing for meshing (Gmsh), visualisation (VTK), FFT (voxels) or tables (CSV).
     Export(cli::export::ExportArgs),
@@ -195,7 +200,8 @@ fn main() -> ExitCode {
             json,
             grading,
             d_min,
-        }) => cli::verify::run(&packing, json, grading.as_deref(), d_min),
+            tolerance,
+        }) => cli::verify::run(&packing, json, grading.as_deref(), d_min, tolerance),
         Some(Command::Export(args)) => cli::export::run(&args),
         Some(Command::Take(args)) => cli::take::run(&args),
         Some(Command::Init(args)) => cli::init::run(&args),
@@ -211,6 +217,16 @@ fn parse_seconds(text: &str) -> Result<f64, String> {
         Ok(s) if s.is_finite() && s >= 0.0 => Ok(s),
         _ => Err(format!("`{text}` is not a number of seconds ≥ 0")),
     }
+}
+
+/// A verification tolerance (see [`densepack::verify::VerifyOptions::check`]).
+fn parse_tolerance(text: &str) -> Result<f64, String> {
+    let tolerance = text
+        .parse::<f64>()
+        .map_err(|_| format!("`{text}` is not a number"))?;
+    densepack::verify::VerifyOptions { tolerance }
+        .check()
+        .map(|()| tolerance)
 }
 
 /// Refuses an output path that cannot be written before a run spends hours on it: its
