@@ -211,11 +211,14 @@ fn main() -> ExitCode {
     }
 }
 
-/// A number of seconds ≥ 0.
+/// A number of seconds in `[0, MAX_SECONDS]` (a `Duration` must hold it).
 fn parse_seconds(text: &str) -> Result<f64, String> {
+    use densepack::io::scene::MAX_SECONDS;
     match text.parse::<f64>() {
-        Ok(s) if s.is_finite() && s >= 0.0 => Ok(s),
-        _ => Err(format!("`{text}` is not a number of seconds ≥ 0")),
+        Ok(s) if s.is_finite() && (0.0..=MAX_SECONDS).contains(&s) => Ok(s),
+        _ => Err(format!(
+            "`{text}` is not a number of seconds in [0, {MAX_SECONDS:e}]"
+        )),
     }
 }
 

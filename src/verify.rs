@@ -392,11 +392,17 @@ pub fn verify_with(packing: &Packing, options: &VerifyOptions) -> Verification {
     while cells_along(widths[0]).iter().product::<i64>() > max_cells {
         widths[0] *= 1.25;
     }
-    loop {
+    // At most 64 levels (a size ratio of 2⁶³; `level_of` is a `u8`): any prefix of the
+    // halvings is a valid set of levels, since every ball fits the coarsest one. An
+    // infinite width (radii near `f64::MAX`) halves to itself and ends the halving too.
+    while widths.len() < 64 {
         let h = 0.5 * widths[widths.len() - 1];
         // Negated comparison: a NaN width ends the halving too.
         let holds_the_smallest = h >= 2.0 * r_min + gap;
-        if !holds_the_smallest || cells_along(h).iter().product::<i64>() > max_cells {
+        if !holds_the_smallest
+            || !h.is_finite()
+            || cells_along(h).iter().product::<i64>() > max_cells
+        {
             break;
         }
         widths.push(h);
@@ -444,7 +450,12 @@ pub fn verify_with(packing: &Packing, options: &VerifyOptions) -> Verification {
             }
             continue;
         };
-        for t in lattice_shifts(&Vector3::zeros(), 2.0 * b.r + gap, &len, periodic) {
+        let reach = 2.0 * b.r + gap;
+        let Some(shifts) = lattice_shifts(&Vector3::zeros(), reach, &len, periodic) else {
+            too_many_images(&mut out, i, i);
+            continue;
+        };
+        for t in shifts {
             if t.iter()
                 .copied()
                 .find(|v| *v != 0.0)
@@ -485,7 +496,12 @@ pub fn verify_with(packing: &Packing, options: &VerifyOptions) -> Verification {
                         let inner = oriented[i].as_ref().map_or(bi.r, |e| e.a_min)
                             + oriented[j].as_ref().map_or(bj.r, |e| e.a_min);
                         // Bounding spheres more than the claimed gap apart keep every promise.
-                        for t in lattice_shifts(&d, bi.r + bj.r + gap, &len, periodic) {
+                        let reach = bi.r + bj.r + gap;
+                        let Some(shifts) = lattice_shifts(&d, reach, &len, periodic) else {
+                            too_many_images(&mut out, i, j);
+                            continue;
+                        };
+                        for t in shifts {
                             let image = d + t;
                             check_ellipsoids(&mut out, (i, j), &mi, &mj, &image, (gap, inner));
                         }
@@ -690,23 +706,42 @@ fn check_ellipsoids(
     }
 }
 
+/// Most lattice translations [`lattice_shifts`] enumerates for one pair: a needle as long as
+/// a few box edges needs 10²; a file whose particles reach further (a box far smaller than
+/// its particles) is reported as not checked instead of looping for ever.
+const MAX_IMAGES: f64 = 1e5;
+
+/// Reports a pair (`i == j`: a particle and its images) whose images are too many to test;
+/// a violation, since the pair was not checked.
+fn too_many_images(out: &mut Verification, i: usize, j: usize) {
+    out.violate(format!(
+        "particles {i} and {j}: more than {MAX_IMAGES:e} periodic images within reach (the \
+         box is far smaller than the particles); not checked"
+    ));
+}
+
 /// Lattice translations `t` (along the periodic axes of edges `len`) with `|d + t| < reach`,
-/// for a separation `d` that is a minimum image on the periodic axes (`|d_k| ≤ L_k/2`).
+/// for a separation `d` that is a minimum image on the periodic axes (`|d_k| ≤ L_k/2`);
+/// `None` when more than [`MAX_IMAGES`] translations (or a non-finite number) would be
+/// tested.
 fn lattice_shifts(
     d: &Vector3<f64>,
     reach: f64,
     len: &[f64; 3],
     periodic: [bool; 3],
-) -> Vec<Vector3<f64>> {
-    let m: Vec<i64> = (0..3)
-        .map(|k| {
-            if periodic[k] {
-                (reach / len[k] + 0.5).floor() as i64
-            } else {
-                0
-            }
-        })
-        .collect();
+) -> Option<Vec<Vector3<f64>>> {
+    let m: [f64; 3] = std::array::from_fn(|k| {
+        if periodic[k] {
+            (reach / len[k] + 0.5).floor()
+        } else {
+            0.0
+        }
+    });
+    // Negated: a NaN count is refused too.
+    if !(m.iter().map(|x| 2.0 * x + 1.0).product::<f64>() <= MAX_IMAGES) {
+        return None;
+    }
+    let m = m.map(|x| x as i64);
     let mut all = Vec::new();
     for nx in -m[0]..=m[0] {
         for ny in -m[1]..=m[1] {
@@ -718,7 +753,7 @@ fn lattice_shifts(
             }
         }
     }
-    all
+    Some(all)
 }
 
 /// A convex body as the independent check sees it.
@@ -1037,10 +1072,15 @@ fn verify_convex_with(packing: &Packing, terms: Terms) -> Verification {
         |d: &Vector3<f64>, reach: f64| lattice_shifts(d, reach + claimed, &edges, [true; 3]);
     for (x, (i, a)) in bodies.iter().enumerate() {
         // A body against its own images (each ±t pair once).
-        for t in shifts(&Vector3::zeros(), 2.0 * a.bound()) {
-            let first = t.iter().copied().find(|v| *v != 0.0);
-            if first.is_some_and(|v| v > 0.0) {
-                record(&mut out, *i, *i, a, &a.shifted(t));
+        match shifts(&Vector3::zeros(), 2.0 * a.bound()) {
+            None => too_many_images(&mut out, *i, *i),
+            Some(own) => {
+                for t in own {
+                    let first = t.iter().copied().find(|v| *v != 0.0);
+                    if first.is_some_and(|v| v > 0.0) {
+                        record(&mut out, *i, *i, a, &a.shifted(t));
+                    }
+                }
             }
         }
         for (j, b) in &bodies[x + 1..] {
@@ -1049,7 +1089,11 @@ fn verify_convex_with(packing: &Packing, terms: Terms) -> Verification {
                 d[k] -= len[k] * (d[k] / len[k]).round();
             }
             let base = d - (b.center() - a.center());
-            for t in shifts(&d, a.bound() + b.bound()) {
+            let Some(images) = shifts(&d, a.bound() + b.bound()) else {
+                too_many_images(&mut out, *i, *j);
+                continue;
+            };
+            for t in images {
                 record(&mut out, *i, *j, a, &b.shifted(base + t));
             }
         }

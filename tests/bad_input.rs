@@ -462,7 +462,13 @@ fn cases() -> Vec<(&'static str, Vec<u8>, Vec<&'static str>)> {
         (
             "NaN wall-clock limit",
             Parts::stage("growth = \"none\"\nuntil = { time = 1.0 }\nmax_wall_seconds = nan"),
-            vec!["stage[0].max_wall_seconds", "> 0"],
+            vec!["stage[0].max_wall_seconds", "NaN", "(0, 1e9]"],
+        ),
+        (
+            // Finite, but no `Duration` holds it: refused instead of panicking later.
+            "wall-clock limit of 1e300 s",
+            Parts::stage("growth = \"none\"\nuntil = { time = 1.0 }\nmax_wall_seconds = 1e300"),
+            vec!["stage[0].max_wall_seconds", "(0, 1e9]"],
         ),
         (
             "negative stall epsilon",
@@ -654,6 +660,11 @@ fn bad_checkpoint_options_exit_2() {
             "negative interval",
             vec!["--checkpoint-every=-1"],
             "--checkpoint-every",
+        ),
+        (
+            "interval no Duration holds",
+            vec!["--checkpoint-every", "1e300"],
+            "[0, 1e9]",
         ),
         (
             "NaN interval",

@@ -374,6 +374,10 @@ fn cylinder_count_bound_and_bad_inputs_are_clear_errors() {
         let (got, message) = field_of(scene(&base.replace(from, to)));
         assert_eq!(got, field, "{to}: {message}");
     }
+    // A limit no `Duration` holds (found by tests/arbitrary_input.rs: it panicked).
+    let (got, message) = field_of(scene(&format!("{base}\ntime_limit_seconds = 1e300")));
+    assert_eq!(got, "mixture.time_limit_seconds");
+    assert!(message.contains("(0, 1e9]"), "{message}");
     let (got, _) = field_of(scene(&base.replace("aspect_ratio = 3.0", "")));
     assert_eq!(got, "mixture.aspect_ratio");
     let (got, _) = field_of(scene(&format!(

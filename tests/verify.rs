@@ -390,3 +390,55 @@ fn gap_claims_hold_for_ellipsoids_and_mixtures_too() {
         );
     }
 }
+
+/// Files that once made `verify` loop for ever or allocate without bound (found by
+/// tests/arbitrary_input.rs) end with a verdict: a box whose extent overflows is malformed, a
+/// particle whose bounding sphere reaches millions of periodic images is reported as not
+/// checked (a violation: it was not verified), radii near `f64::MAX` are judged.
+#[test]
+fn pathological_packings_end_with_a_verdict() {
+    let huge = Packing::new(
+        ContainerRecord::Box {
+            min: [-1e308, 0.0, 0.0],
+            max: [1e308, 1.0, 1.0],
+            periodic: [true; 3],
+        },
+        vec![sphere([0.0, 0.5, 0.5], 0.1)],
+    );
+    let refused = huge.check().unwrap_err();
+    assert!(refused.contains("container.max[0]"), "{refused}");
+    assert!(!verify(&huge).ok());
+    // An ellipsoid of semi-axis 1 in a periodic box of edge 1e-3: 10⁹ images within reach.
+    let needle = ParticleRecord::Ellipsoid {
+        center: [5e-4; 3],
+        semi_axes: [1.0, 1.0, 1.0],
+        orientation: [1.0, 0.0, 0.0, 0.0],
+    };
+    let tiny = Packing::new(periodic_box([1e-3; 3]), vec![needle]);
+    let v = verify(&tiny);
+    assert!(!v.ok());
+    assert!(
+        v.violations.iter().any(|m| m.contains("not checked")),
+        "{:?}",
+        v.violations
+    );
+    // The same for a cylinder in a mixture.
+    let rod = ParticleRecord::Cylinder {
+        center: [5e-4; 3],
+        radius: 1.0,
+        half_axis: [0.0, 0.0, 1.0],
+    };
+    let v = verify(&Packing::new(periodic_box([1e-3; 3]), vec![rod]));
+    assert!(v.violations.iter().any(|m| m.contains("not checked")));
+    // Radii near f64::MAX: infinite cell widths, yet a verdict (they cross the walls).
+    let giants = Packing::new(
+        ContainerRecord::Box {
+            min: [0.0; 3],
+            max: [10.0; 3],
+            periodic: [false; 3],
+        },
+        vec![sphere([5.0; 3], 1e308), sphere([6.0; 3], 1e-300)],
+    );
+    let v = verify(&giants);
+    assert_eq!(v.overlap_count, 2, "{:?}", v.violations);
+}

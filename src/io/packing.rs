@@ -59,11 +59,12 @@ impl ContainerRecord {
                             return Err(format!("container.{name}[{k}] = {v} must be finite"));
                         }
                     }
-                    // Negated: a box of zero or negative extent is refused.
-                    if !(max[k] > min[k]) {
+                    // Negated: a box of zero or negative extent is refused, and one whose
+                    // extent overflows (every cell and image count would be infinite).
+                    if !(max[k] > min[k] && (max[k] - min[k]).is_finite()) {
                         return Err(format!(
                             "container.max[{k}] = {} must be > container.min[{k}] = {} \
-                             (a box of positive extent)",
+                             (a box of positive, finite extent)",
                             max[k], min[k]
                         ));
                     }
@@ -81,10 +82,13 @@ impl ContainerRecord {
                         base_center[k]
                     ));
                 }
-                for (name, v) in [("radius", radius), ("height", height)] {
-                    if !(v.is_finite() && *v > 0.0) {
+                // The diameter must be finite too (the bounding box's extent).
+                for (name, v) in [("radius", 2.0 * radius), ("height", *height)] {
+                    if !(v.is_finite() && v > 0.0) {
+                        let v = if name == "radius" { *radius } else { v };
                         return Err(format!(
-                            "container.{name} = {v} must be a finite number > 0"
+                            "container.{name} = {v} must be a finite number > 0 \
+                             (a cylinder of finite size)"
                         ));
                     }
                 }

@@ -482,6 +482,22 @@ fn invalid(field: impl Into<String>, message: impl Into<String>) -> SceneError {
     }
 }
 
+/// Longest wall-clock limit accepted, in seconds (about 31 years): a longer one is no limit,
+/// and `std::time::Duration` cannot hold one beyond ~1.8e19 s (converting it would panic).
+pub const MAX_SECONDS: f64 = 1e9;
+
+/// A wall-clock limit: a number of seconds in `(0, MAX_SECONDS]`.
+fn seconds(field: &str, x: f64) -> Result<(), SceneError> {
+    if x.is_finite() && x > 0.0 && x <= MAX_SECONDS {
+        Ok(())
+    } else {
+        Err(invalid(
+            field,
+            format!("= {x} must be a number of seconds in (0, {MAX_SECONDS:e}]"),
+        ))
+    }
+}
+
 fn positive(field: &str, x: f64) -> Result<(), SceneError> {
     if x.is_finite() && x > 0.0 {
         Ok(())
@@ -1036,7 +1052,7 @@ impl Scene {
                 positive(&f("until.collisions_per_particle"), x)?;
             }
             if let Some(x) = s.max_wall_seconds {
-                positive(&f("max_wall_seconds"), x)?;
+                seconds(&f("max_wall_seconds"), x)?;
             }
             if s.max_events == Some(0) {
                 return Err(invalid(f("max_events"), "= 0 must be ≥ 1"));
@@ -1537,7 +1553,7 @@ impl MixtureScene {
         }
         self.spec().validate().map_err(to_scene)?;
         if let Some(t) = self.mixture.time_limit_seconds {
-            positive("mixture.time_limit_seconds", t)?;
+            seconds("mixture.time_limit_seconds", t)?;
         }
         if self.mixture.max_attempts_per_body == 0 {
             return Err(invalid(
