@@ -737,8 +737,8 @@ fn lattice_shifts(
             0.0
         }
     });
-    // Negated: a NaN count is refused too.
-    if !(m.iter().map(|x| 2.0 * x + 1.0).product::<f64>() <= MAX_IMAGES) {
+    let count: f64 = m.iter().map(|x| 2.0 * x + 1.0).product();
+    if count.is_nan() || count > MAX_IMAGES {
         return None;
     }
     let m = m.map(|x| x as i64);

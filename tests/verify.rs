@@ -35,6 +35,17 @@ fn pair_at(g: f64) -> Packing {
     )
 }
 
+/// `verify` finds `overlaps` overlaps and `broken` broken gap claims (`0` or `1` each).
+fn assert_counts(packing: &Packing, (overlaps, broken): (bool, bool), what: &str) {
+    let v = verify(packing);
+    assert_eq!(
+        (v.overlap_count, v.gap_claim_count),
+        (usize::from(overlaps), usize::from(broken)),
+        "{what}: {:?}",
+        v.violations
+    );
+}
+
 /// Writes `packing` as a file and runs `densepack verify` on it with `extra` arguments.
 fn verify_file(dir: &std::path::Path, name: &str, packing: &Packing, extra: &[&str]) -> Run {
     let path = dir.join(format!("{name}.json"));
@@ -196,15 +207,13 @@ fn claimed_gaps_are_checked_and_never_relax_the_overlap_test() {
                 vec![sphere([x, 5.0, 5.0], 1.0)],
             )
         };
-        let v = verify(&packing);
-        assert_eq!(
-            (v.overlap_count, v.gap_claim_count),
-            (usize::from(overlaps), usize::from(broken)),
-            "x = {x}: {:?}",
-            v.violations
-        );
+        assert_counts(&packing, (overlaps, broken), &format!("x = {x}"));
         // Surface gap x − 1 to the wall at 0, in radii.
-        assert_eq!(v.min_wall_gap_relative, Some(x - 1.0), "x = {x}");
+        assert_eq!(
+            verify(&packing).min_wall_gap_relative,
+            Some(x - 1.0),
+            "x = {x}"
+        );
     }
 }
 
@@ -362,12 +371,10 @@ fn gap_claims_hold_for_ellipsoids_and_mixtures_too() {
                 vec![ball(3.0), ball(5.0 + surface_gap)],
             )
         };
-        let v = verify(&packing);
-        assert_eq!(
-            (v.overlap_count, v.gap_claim_count),
-            (usize::from(overlaps), usize::from(broken)),
-            "ellipsoids {surface_gap}: {:?}",
-            v.violations
+        assert_counts(
+            &packing,
+            (overlaps, broken),
+            &format!("ellipsoids {surface_gap}"),
         );
         let rod = ParticleRecord::Cylinder {
             center: [3.0, 5.0, 5.0],
@@ -381,12 +388,10 @@ fn gap_claims_hold_for_ellipsoids_and_mixtures_too() {
                 vec![rod, sphere([5.0 + surface_gap, 5.0, 5.0], 1.0)],
             )
         };
-        let v = verify(&packing);
-        assert_eq!(
-            (v.overlap_count, v.gap_claim_count),
-            (usize::from(overlaps), usize::from(broken)),
-            "mixture {surface_gap}: {:?}",
-            v.violations
+        assert_counts(
+            &packing,
+            (overlaps, broken),
+            &format!("mixture {surface_gap}"),
         );
     }
 }
