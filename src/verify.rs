@@ -16,7 +16,7 @@
 //! positive finite size; both are reported and the claim is then taken as 0.
 //!
 //! Packings with cylinders (sphere + cylinder mixtures, periodic box only) go to
-//! [`verify_convex_with`], which shares no code with `geometry::cylinder` either: a pair is
+//! `verify_convex_with`, which shares no code with `geometry::cylinder` either: a pair is
 //! accepted only with a *separating-plane certificate* for the two bodies eroded by `tol`
 //! times their radius — a direction `d` with `max_{x∈A} x·d < min_{y∈B} y·d`, evaluated with
 //! the closed-form support functions — found by GJK on the support maps (the simplex's
@@ -435,10 +435,10 @@ pub fn verify_with(packing: &Packing, options: &VerifyOptions) -> Verification {
         })
         .collect();
     // A particle against its own images. An ellipsoid: every image its bounding sphere
-    // reaches, claimed gap included (each pair of opposite shifts once), since a needle longer than the box edge
-    // along its axis overlaps itself. A sphere: its nearest image, one shortest periodic edge
-    // away (every other lattice vector is longer), once that image is within the contact
-    // reach `2r + gap`.
+    // reaches, claimed gap included (each pair of opposite shifts once), since a needle
+    // longer than the box edge along its axis overlaps itself. A sphere: its nearest image,
+    // one shortest periodic edge away (every other lattice vector is longer), once that
+    // image is within the contact reach `2r + gap`.
     let shortest_edge = (0..3)
         .filter(|&k| periodic[k])
         .map(|k| len[k])

@@ -279,7 +279,9 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(2000))]
 
     #[test]
-    fn arbitrary_bytes_never_panic_the_readers(data in proptest::collection::vec(any::<u8>(), 0..600)) {
+    fn arbitrary_bytes_never_panic_the_readers(
+        data in proptest::collection::vec(any::<u8>(), 0..600),
+    ) {
         check_scene(&data)?;
         check_packing(&data)?;
     }
