@@ -84,6 +84,11 @@ enum Command {
         /// Cut-off diameter of the grading comparison (default: the smallest sphere).
         #[arg(long, requires = "grading")]
         d_min: Option<f64>,
+        /// Relative tolerance of the overlap and gap tests, in [0, 0.01]: a pair overlaps when
+        /// its centres are closer than (1 − TOL)·(r_i + r_j). Never taken from the file.
+        #[arg(long, value_name = "TOL", default_value_t = densepack::verify::TOLERANCE,
+              allow_hyphen_values = true, value_parser = parse_tolerance)]
+        tolerance: f64,
     },
     /// Is a sphere packing jammed? Contacts against the gap cut-off, rattlers, the
     /// backbone's contact number, Q6 and a linear-programming certificate.
@@ -231,7 +236,8 @@ fn command(cli: Cli) -> ExitCode {
             json,
             grading,
             d_min,
-        }) => cli::verify::run(&packing, json, grading.as_deref(), d_min),
+            tolerance,
+        }) => cli::verify::run(&packing, json, grading.as_deref(), d_min, tolerance),
         Some(Command::Analyse(args)) => cli::analyse::run(&args),
         Some(Command::Export(args)) => cli::export::run(&args),
         Some(Command::Take(args)) => cli::take::run(&args),
@@ -266,6 +272,16 @@ fn check_memory((needed, what): (u64, String)) -> Result<(), ExitCode> {
         errln!("nothing written");
         ExitCode::from(2)
     })
+}
+
+/// A verification tolerance (see [`densepack::verify::VerifyOptions::check`]).
+fn parse_tolerance(text: &str) -> Result<f64, String> {
+    let tolerance = text
+        .parse::<f64>()
+        .map_err(|_| format!("`{text}` is not a number"))?;
+    densepack::verify::VerifyOptions { tolerance }
+        .check()
+        .map(|()| tolerance)
 }
 
 /// Hears of every finished stage.

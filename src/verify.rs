@@ -2,12 +2,21 @@
 //!
 //! This module shares no code with the kernel's prediction, cell grid or boundaries: it works
 //! on the packing as written ([`Packing`]), finds candidate pairs through its own cell levels
-//! and measures distances with its own minimum-image rule (`dx − L·round(dx/L)`). A pair is
-//! accepted when `|c_i − c_j| ≥ (1 − tol)·(r_i + r_j) + min_gap`, a sphere when its distance
-//! to every wall is at least `(1 − tol)·r + wall_gap` (`wall_gap` defaults to `min_gap/2`), with `tol` = [`TOLERANCE`].
+//! and measures distances with its own minimum-image rule (`dx − L·round(dx/L)`).
+//!
+//! Nothing the file claims relaxes a check. The relative tolerance `tol` comes from the
+//! caller ([`VerifyOptions`], default [`TOLERANCE`]; `densepack verify --tolerance`), never
+//! from the file. A pair *overlaps* when `|c_i − c_j| < (1 − tol)·(r_i + r_j)`, a sphere
+//! crosses a wall when its distance to it is below `(1 − tol)·r`, and a sphere in a periodic
+//! box overlaps its own image when the shortest periodic edge is below `(1 − tol)·2r`. The
+//! gaps the file claims (`min_gap`, `wall_gap`, default `min_gap/2`) are separate promises,
+//! checked on top: a pair closer than `(1 − tol)·(r_i + r_j) + min_gap` (a wall closer than
+//! `(1 − tol)·r + wall_gap`) that does not overlap is a *gap claim* violation. A claim that is
+//! negative or not finite is a malformed file ([`Packing::check`]), as is a container of no
+//! positive finite size; both are reported and the claim is then taken as 0.
 //!
 //! Packings with cylinders (sphere + cylinder mixtures, periodic box only) go to
-//! [`verify_convex`], which shares no code with `geometry::cylinder` either: a pair is
+//! `verify_convex_with`, which shares no code with `geometry::cylinder` either: a pair is
 //! accepted only with a *separating-plane certificate* for the two bodies eroded by `tol`
 //! times their radius — a direction `d` with `max_{x∈A} x·d < min_{y∈B} y·d`, evaluated with
 //! the closed-form support functions — found by GJK on the support maps (the simplex's
@@ -29,15 +38,51 @@
 use crate::io::packing::{ContainerRecord, Packing, ParticleRecord};
 use nalgebra::Vector3;
 
-/// Relative tolerance of the overlap test (rounding of the written coordinates and of the
-/// kernel's time stepping stay far below it).
+/// Default relative tolerance of the overlap test (rounding of the written coordinates and of
+/// the kernel's time stepping stay far below it).
 pub const TOLERANCE: f64 = 1e-9;
+
+/// Largest relative tolerance accepted: beyond 1 % of the radii the check would no longer
+/// tell an overlap from a contact.
+pub const MAX_TOLERANCE: f64 = 1e-2;
+
+/// How a packing is checked; chosen by the caller, never read from the packing.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VerifyOptions {
+    /// Relative tolerance `tol` of the overlap and gap tests, in `[0, MAX_TOLERANCE]`.
+    pub tolerance: f64,
+}
+
+impl Default for VerifyOptions {
+    fn default() -> Self {
+        Self {
+            tolerance: TOLERANCE,
+        }
+    }
+}
+
+impl VerifyOptions {
+    /// Whether the tolerance is a finite number in `[0, MAX_TOLERANCE]`; the error names it and
+    /// the allowed range.
+    pub fn check(&self) -> Result<(), String> {
+        let t = self.tolerance;
+        if t.is_finite() && (0.0..=MAX_TOLERANCE).contains(&t) {
+            Ok(())
+        } else {
+            Err(format!(
+                "tolerance = {t} must be a finite number in [0, {MAX_TOLERANCE:e}]"
+            ))
+        }
+    }
+}
 
 /// The outcome of a verification.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Verification {
     /// Number of particles.
     pub particles: usize,
+    /// The relative tolerance the checks applied.
+    pub tolerance: f64,
     /// Packing fraction recomputed from the particles and the container.
     pub packing_fraction: f64,
     /// Smallest surface-to-surface distance between two particles relative to the sum of
@@ -48,10 +93,18 @@ pub struct Verification {
     pub min_pair_gap: Option<f64>,
     /// Smallest distance between a particle surface and a wall (`None` without walls).
     pub min_wall_gap: Option<f64>,
+    /// Smallest wall gap relative to the particle's radius (bounding radius for an ellipsoid):
+    /// below `−tolerance` the particle crosses the wall.
+    pub min_wall_gap_relative: Option<f64>,
     /// Human-readable violations (at most 20 listed).
     pub violations: Vec<String>,
-    /// Total number of violations.
+    /// Total number of violations (overlaps, gap claims and malformed particles).
     pub violation_count: usize,
+    /// Overlaps beyond the tolerance: pairs, a particle and its own periodic image, a
+    /// particle and a wall.
+    pub overlap_count: usize,
+    /// Pairs (or walls) that do not overlap but are closer than the gap the file claims.
+    pub gap_claim_count: usize,
     /// Per particle, the smallest relative gap `|c_i − c_j| / (r_i + r_j) − 1` to any
     /// neighbour found by the candidate search (`+∞` when none is near); for the gap
     /// histogram of [`crate::analysis`].
@@ -62,17 +115,33 @@ pub struct Verification {
 impl Verification {
     /// A verification of `particles` particles that has found nothing yet, with a
     /// per-particle nearest-gap slot for each of `nearest` particles.
-    fn new(particles: usize, nearest: usize) -> Self {
+    fn new(particles: usize, nearest: usize, tolerance: f64) -> Self {
         Self {
             particles,
+            tolerance,
             packing_fraction: 0.0,
             min_pair_gap_relative: None,
             min_pair_gap: None,
             min_wall_gap: None,
+            min_wall_gap_relative: None,
             violations: Vec::new(),
             violation_count: 0,
+            overlap_count: 0,
+            gap_claim_count: 0,
             nearest_gap_relative: vec![f64::INFINITY; nearest],
         }
+    }
+
+    /// Counts an overlap beyond the tolerance.
+    fn overlap(&mut self, message: String) {
+        self.overlap_count += 1;
+        self.violate(message);
+    }
+
+    /// Counts a broken gap claim (no overlap, but closer than the file promises).
+    fn broken_claim(&mut self, message: String) {
+        self.gap_claim_count += 1;
+        self.violate(message);
     }
 
     /// Counts a violation; the first 20 are kept for the report.
@@ -94,20 +163,74 @@ struct Ball {
     r: f64,
 }
 
-/// An ellipsoid as the verification sees it: `M = R·diag(a², b², c²)·Rᵀ` and its volume.
+/// An ellipsoid as the verification sees it: `M = R·diag(a², b², c²)·Rᵀ`, its volume and its
+/// smallest semi-axis.
 struct Oriented {
     m: [[f64; 3]; 3],
     volume: f64,
+    a_min: f64,
 }
 
-/// Checks a packing; never trusts anything the simulation computed.
+/// Checks a packing at the default tolerance ([`TOLERANCE`]); never trusts anything the
+/// simulation computed.
 pub fn verify(packing: &Packing) -> Verification {
+    verify_with(packing, &VerifyOptions::default())
+}
+
+/// The tolerance and the gap claims a check works with, and what was wrong with them.
+/// Invalid input is reported as a violation and replaced by values that keep every check
+/// on (the default tolerance, no claimed gap): a bad file or option never passes silently.
+struct Terms {
+    tol: f64,
+    gap: f64,
+    wall_gap: f64,
+    problems: Vec<String>,
+}
+
+impl Terms {
+    fn of(packing: &Packing, options: &VerifyOptions) -> Self {
+        let mut problems = Vec::new();
+        let tol = match options.check() {
+            Ok(()) => options.tolerance,
+            Err(e) => {
+                problems.push(e);
+                TOLERANCE
+            }
+        };
+        let (gap, wall_gap) = match packing.check() {
+            Ok(()) => (packing.min_gap, packing.wall_gap()),
+            Err(e) => {
+                problems.push(format!("malformed packing: {e}"));
+                let valid = |g: f64| if g.is_finite() && g >= 0.0 { g } else { 0.0 };
+                (valid(packing.min_gap), valid(packing.wall_gap()))
+            }
+        };
+        Self {
+            tol,
+            gap,
+            wall_gap,
+            problems,
+        }
+    }
+}
+
+/// Checks a packing with the tolerance of `options`; never trusts anything the simulation
+/// computed or the file claims (see the module documentation).
+pub fn verify_with(packing: &Packing, options: &VerifyOptions) -> Verification {
+    let terms = Terms::of(packing, options);
+    if let Err(e) = packing.container.check() {
+        // No volume, wall or minimum image is defined: nothing else can be checked.
+        let mut out = Verification::new(packing.particles.len(), 0, terms.tol);
+        out.packing_fraction = f64::NAN;
+        out.violate(format!("malformed packing: {e}"));
+        return out;
+    }
     if packing
         .particles
         .iter()
         .any(|p| matches!(p, ParticleRecord::Cylinder { .. }))
     {
-        return verify_convex(packing);
+        return verify_convex_with(packing, terms);
     }
     let balls: Vec<Ball> = packing
         .particles
@@ -124,7 +247,7 @@ pub fn verify(packing: &Packing) -> Verification {
                 r: semi_axes.iter().copied().fold(f64::NAN, f64::max),
             },
             ParticleRecord::Cylinder { .. } => {
-                unreachable!("packings with cylinders go to verify_convex")
+                unreachable!("packings with cylinders go to verify_convex_with")
             }
         })
         .collect();
@@ -135,9 +258,11 @@ pub fn verify(packing: &Packing) -> Verification {
         .iter()
         .map(|p| oriented_of(p).map(Box::new))
         .collect();
-    let gap = packing.min_gap;
-    let wall_gap = packing.wall_gap();
-    let mut out = Verification::new(balls.len(), balls.len());
+    let (tol, gap, wall_gap) = (terms.tol, terms.gap, terms.wall_gap);
+    let mut out = Verification::new(balls.len(), balls.len(), tol);
+    for problem in terms.problems {
+        out.violate(problem);
+    }
     for (i, b) in balls.iter().enumerate() {
         if !(b.r.is_finite() && b.r > 0.0 && b.c.iter().all(|x| x.is_finite())) {
             out.violate(format!("particle {i}: non-finite centre or radius ≤ 0"));
@@ -224,9 +349,20 @@ pub fn verify(packing: &Packing) -> Verification {
         if wall_distance.is_finite() {
             let g = wall_distance - b.r;
             out.min_wall_gap = Some(out.min_wall_gap.map_or(g, |m: f64| m.min(g)));
-            if wall_distance < (1.0 - TOLERANCE) * b.r + wall_gap {
-                out.violate(format!(
-                    "particle {i} (radius {}) is {wall_distance} from a wall: needs ≥ {}",
+            let rel = g / b.r;
+            if out.min_wall_gap_relative.is_none_or(|m| rel < m) {
+                out.min_wall_gap_relative = Some(rel);
+            }
+            if wall_distance < (1.0 - tol) * b.r {
+                out.overlap(format!(
+                    "particle {i} (radius {}) crosses a wall: its surface gap {g:e} is {rel:.3e} \
+                     of its radius, beyond the tolerance {tol:e}",
+                    b.r
+                ));
+            } else if wall_distance < (1.0 - tol) * b.r + wall_gap {
+                out.broken_claim(format!(
+                    "particle {i} (radius {}) is {wall_distance} from a wall: the claimed \
+                     wall_gap {wall_gap} needs ≥ {}",
                     b.r,
                     b.r + wall_gap
                 ));
@@ -256,11 +392,17 @@ pub fn verify(packing: &Packing) -> Verification {
     while cells_along(widths[0]).iter().product::<i64>() > max_cells {
         widths[0] *= 1.25;
     }
-    loop {
+    // At most 64 levels (a size ratio of 2⁶³; `level_of` is a `u8`): any prefix of the
+    // halvings is a valid set of levels, since every ball fits the coarsest one. An
+    // infinite width (radii near `f64::MAX`) halves to itself and ends the halving too.
+    while widths.len() < 64 {
         let h = 0.5 * widths[widths.len() - 1];
         // Negated comparison: a NaN width ends the halving too.
         let holds_the_smallest = h >= 2.0 * r_min + gap;
-        if !holds_the_smallest || cells_along(h).iter().product::<i64>() > max_cells {
+        if !holds_the_smallest
+            || !h.is_finite()
+            || cells_along(h).iter().product::<i64>() > max_cells
+        {
             break;
         }
         widths.push(h);
@@ -292,17 +434,34 @@ pub fn verify(packing: &Packing) -> Verification {
             )
         })
         .collect();
-    // An ellipsoid against its own images (each pair of opposite shifts once): a needle
-    // longer than the box edge along its axis overlaps itself.
+    // A particle against its own images. An ellipsoid: every image its bounding sphere
+    // reaches, claimed gap included (each pair of opposite shifts once), since a needle
+    // longer than the box edge along its axis overlaps itself. A sphere: its nearest image,
+    // one shortest periodic edge away (every other lattice vector is longer), once that
+    // image is within the contact reach `2r + gap`.
+    let shortest_edge = (0..3)
+        .filter(|&k| periodic[k])
+        .map(|k| len[k])
+        .fold(f64::INFINITY, f64::min);
     for (i, (b, o)) in balls.iter().zip(&oriented).enumerate() {
-        let Some(e) = o else { continue };
-        for t in lattice_shifts(&Vector3::zeros(), 2.0 * b.r, &len, periodic) {
+        let Some(e) = o else {
+            if shortest_edge < 2.0 * b.r + gap {
+                check_spheres(&mut out, (i, i), shortest_edge, (b.r, b.r), gap);
+            }
+            continue;
+        };
+        let reach = 2.0 * b.r + gap;
+        let Some(shifts) = lattice_shifts(&Vector3::zeros(), reach, &len, periodic) else {
+            too_many_images(&mut out, i, i);
+            continue;
+        };
+        for t in shifts {
             if t.iter()
                 .copied()
                 .find(|v| *v != 0.0)
                 .is_some_and(|v| v > 0.0)
             {
-                check_ellipsoids(&mut out, i, i, &e.m, &e.m, &t);
+                check_ellipsoids(&mut out, (i, i), &e.m, &e.m, &t, (gap, 2.0 * e.a_min));
             }
         }
     }
@@ -333,38 +492,64 @@ pub fn verify(packing: &Packing) -> Verification {
                         let d = Vector3::from(dv);
                         let mi = shape_matrix_of(oriented[i].as_deref(), bi.r);
                         let mj = shape_matrix_of(oriented[j].as_deref(), bj.r);
-                        for t in lattice_shifts(&d, bi.r + bj.r, &len, periodic) {
+                        // The gap claim is certified through the smallest semi-axes.
+                        let inner = oriented[i].as_ref().map_or(bi.r, |e| e.a_min)
+                            + oriented[j].as_ref().map_or(bj.r, |e| e.a_min);
+                        // Bounding spheres more than the claimed gap apart keep every promise.
+                        let reach = bi.r + bj.r + gap;
+                        let Some(shifts) = lattice_shifts(&d, reach, &len, periodic) else {
+                            too_many_images(&mut out, i, j);
+                            continue;
+                        };
+                        for t in shifts {
                             let image = d + t;
-                            check_ellipsoids(&mut out, i, j, &mi, &mj, &image);
+                            check_ellipsoids(&mut out, (i, j), &mi, &mj, &image, (gap, inner));
                         }
                         continue;
                     }
-                    let dist = d2.sqrt();
-                    let sum = bi.r + bj.r;
-                    let rel = dist / sum - 1.0;
-                    out.nearest_gap_relative[i] = out.nearest_gap_relative[i].min(rel);
-                    out.nearest_gap_relative[j] = out.nearest_gap_relative[j].min(rel);
-                    if out.min_pair_gap_relative.is_none_or(|m| rel < m) {
-                        out.min_pair_gap_relative = Some(rel);
-                    }
-                    let abs = dist - sum;
-                    if out.min_pair_gap.is_none_or(|m| abs < m) {
-                        out.min_pair_gap = Some(abs);
-                    }
-                    if dist < (1.0 - TOLERANCE) * sum + gap {
-                        out.violate(format!(
-                            "particles {i} and {j} are {dist} apart: needs ≥ {} \
-                                 (radii {} + {}, gap {gap})",
-                            sum + gap,
-                            bi.r,
-                            bj.r
-                        ));
-                    }
+                    check_spheres(&mut out, (i, j), d2.sqrt(), (bi.r, bj.r), gap);
                 }
             }
         }
     }
     out
+}
+
+/// Records the check of spheres `i` and `j` (`i == j`: a sphere and its own image) of radii
+/// `r` whose centres are `dist` apart, against the claimed gap `gap`.
+fn check_spheres(
+    out: &mut Verification,
+    (i, j): (usize, usize),
+    dist: f64,
+    r: (f64, f64),
+    gap: f64,
+) {
+    let (sum, tol) = (r.0 + r.1, out.tolerance);
+    let rel = dist / sum - 1.0;
+    out.nearest_gap_relative[i] = out.nearest_gap_relative[i].min(rel);
+    out.nearest_gap_relative[j] = out.nearest_gap_relative[j].min(rel);
+    if out.min_pair_gap_relative.is_none_or(|m| rel < m) {
+        out.min_pair_gap_relative = Some(rel);
+    }
+    let abs = dist - sum;
+    if out.min_pair_gap.is_none_or(|m| abs < m) {
+        out.min_pair_gap = Some(abs);
+    }
+    let whom = if i == j {
+        format!("particle {i} (radius {}) and its own periodic image", r.0)
+    } else {
+        format!("particles {i} and {j} (radii {} + {})", r.0, r.1)
+    };
+    if dist < (1.0 - tol) * sum {
+        out.overlap(format!(
+            "{whom} overlap: {dist} apart, relative gap {rel:.3e} beyond the tolerance {tol:e}"
+        ));
+    } else if dist < (1.0 - tol) * sum + gap {
+        out.broken_claim(format!(
+            "{whom} are {dist} apart: the claimed min_gap {gap} needs ≥ {}",
+            sum + gap
+        ));
+    }
 }
 
 /// One level of the pair search of [`verify`]: a box of `ncell` cells per axis and its balls
@@ -468,56 +653,95 @@ impl PairLevel {
 }
 
 /// Records the Perram–Wertheim check of ellipsoids (or spheres) `i` and `j` with shape matrices
-/// `mi`, `mj` whose centres are `d` apart (`j`'s image as given).
+/// `mi`, `mj` whose centres are `d` apart (`j`'s image as given), against the claimed gap
+/// `claim.0`. Scaling a body by `s ≥ 1` about its centre covers it grown by `(s − 1)` times
+/// its smallest semi-axis, so bodies that touch only when scaled by `s` are at least
+/// `(s − 1)·inner` apart, `inner = claim.1` the sum of their smallest semi-axes: the claim
+/// holds when `s − 1 ≥ gap/inner − tol` (exact for spheres; for other shapes it may reject a
+/// kept claim, never accept a broken one).
 fn check_ellipsoids(
     out: &mut Verification,
-    i: usize,
-    j: usize,
+    (i, j): (usize, usize),
     mi: &[[f64; 3]; 3],
     mj: &[[f64; 3]; 3],
     d: &Vector3<f64>,
+    claim: (f64, f64),
 ) {
-    // A pair that is neither an overlap nor the new closest one needs no exact scale.
+    let tol = out.tolerance;
+    let needed = if claim.0 > 0.0 {
+        claim.0 / claim.1
+    } else {
+        0.0
+    };
+    // A pair that is neither an overlap, nor the new closest one, nor closer than the claim
+    // needs no exact scale.
     let floor = out
         .min_pair_gap_relative
-        .map_or(f64::INFINITY, |m| m.max(0.0));
+        .map_or(f64::INFINITY, |m| m.max(0.0).max(needed));
     let scale = contact_scale_above(mi, mj, &[d.x, d.y, d.z], floor);
     let rel = scale - 1.0;
     if out.min_pair_gap_relative.is_none_or(|m| rel < m) {
         out.min_pair_gap_relative = Some(rel);
     }
-    if scale.is_nan() || scale < 1.0 - TOLERANCE {
-        let whom = if i == j {
-            format!(
-                "particle {i} and its own periodic image at {:?}",
-                [d.x, d.y, d.z]
-            )
-        } else {
-            format!("particles {i} and {j} (image at {:?})", [d.x, d.y, d.z])
-        };
-        out.violate(format!(
-            "{whom} overlap: they touch only when scaled by {scale} (Perram–Wertheim)"
+    let whom = if i == j {
+        format!(
+            "particle {i} and its own periodic image at {:?}",
+            [d.x, d.y, d.z]
+        )
+    } else {
+        format!("particles {i} and {j} (image at {:?})", [d.x, d.y, d.z])
+    };
+    if scale.is_nan() || scale < 1.0 - tol {
+        out.overlap(format!(
+            "{whom} overlap: they touch only when scaled by {scale} (Perram–Wertheim), \
+             beyond the tolerance {tol:e}"
+        ));
+    } else if claim.0 > 0.0 && rel < needed - tol {
+        out.broken_claim(format!(
+            "{whom}: the claimed min_gap {} is not certified (they touch when scaled by \
+             {scale}, at least {:e} apart)",
+            claim.0,
+            rel * claim.1
         ));
     }
 }
 
+/// Most lattice translations [`lattice_shifts`] enumerates for one pair: a needle as long as
+/// a few box edges needs 10²; a file whose particles reach further (a box far smaller than
+/// its particles) is reported as not checked instead of looping for ever.
+const MAX_IMAGES: f64 = 1e5;
+
+/// Reports a pair (`i == j`: a particle and its images) whose images are too many to test;
+/// a violation, since the pair was not checked.
+fn too_many_images(out: &mut Verification, i: usize, j: usize) {
+    out.violate(format!(
+        "particles {i} and {j}: more than {MAX_IMAGES:e} periodic images within reach (the \
+         box is far smaller than the particles); not checked"
+    ));
+}
+
 /// Lattice translations `t` (along the periodic axes of edges `len`) with `|d + t| < reach`,
-/// for a separation `d` that is a minimum image on the periodic axes (`|d_k| ≤ L_k/2`).
+/// for a separation `d` that is a minimum image on the periodic axes (`|d_k| ≤ L_k/2`);
+/// `None` when more than [`MAX_IMAGES`] translations (or a non-finite number) would be
+/// tested.
 fn lattice_shifts(
     d: &Vector3<f64>,
     reach: f64,
     len: &[f64; 3],
     periodic: [bool; 3],
-) -> Vec<Vector3<f64>> {
-    let m: Vec<i64> = (0..3)
-        .map(|k| {
-            if periodic[k] {
-                (reach / len[k] + 0.5).floor() as i64
-            } else {
-                0
-            }
-        })
-        .collect();
+) -> Option<Vec<Vector3<f64>>> {
+    let m: [f64; 3] = std::array::from_fn(|k| {
+        if periodic[k] {
+            (reach / len[k] + 0.5).floor()
+        } else {
+            0.0
+        }
+    });
+    let count: f64 = m.iter().map(|x| 2.0 * x + 1.0).product();
+    if count.is_nan() || count > MAX_IMAGES {
+        return None;
+    }
+    let m = m.map(|x| x as i64);
     let mut all = Vec::new();
     for nx in -m[0]..=m[0] {
         for ny in -m[1]..=m[1] {
@@ -529,7 +753,7 @@ fn lattice_shifts(
             }
         }
     }
-    all
+    Some(all)
 }
 
 /// A convex body as the independent check sees it.
@@ -702,13 +926,13 @@ enum PairCheck {
 
 /// Separation of the eroded bodies `a`, `b` (see the module documentation); `a_full`,
 /// `b_full` give the reported gap.
-fn check_pair(a_full: &Convex, b_full: &Convex) -> PairCheck {
-    let a = a_full.eroded(TOLERANCE * a_full.radius());
-    let b = b_full.eroded(TOLERANCE * b_full.radius());
+fn check_pair(a_full: &Convex, b_full: &Convex, tol: f64) -> PairCheck {
+    let a = a_full.eroded(tol * a_full.radius());
+    let b = b_full.eroded(tol * b_full.radius());
     let size = a_full.bound().max(b_full.bound());
     if let (Convex::Ball { c: ca, r: ra }, Convex::Ball { c: cb, r: rb }) = (a_full, b_full) {
         let gap = (cb - ca).norm() - ra - rb;
-        return if gap > -TOLERANCE * (ra + rb) {
+        return if gap > -tol * (ra + rb) {
             PairCheck::Separated(gap)
         } else {
             PairCheck::Overlapping
@@ -748,10 +972,17 @@ fn check_pair(a_full: &Convex, b_full: &Convex) -> PairCheck {
 /// Checks a packing with cylinders (and spheres) in a periodic box: wrapped centres, valid
 /// sizes, and every pair of bodies — every periodic image across faces, edges and corners,
 /// and each body against its own images — certified apart by a separating plane of the
-/// bodies eroded by [`TOLERANCE`] times their radius. Pairs are enumerated directly
-/// (`O(N²)` bounding-sphere tests: mixture RVEs hold hundreds of bodies).
-pub fn verify_convex(packing: &Packing) -> Verification {
-    let mut out = Verification::new(packing.particles.len(), 0);
+/// bodies eroded by the tolerance times their radius. A claimed `min_gap` holds for a pair
+/// when the certificate's lower bound of the surface distance is at least
+/// `min_gap − tol·(r_a + r_b)` (it may reject a kept claim, never accept a broken one). Pairs
+/// are enumerated directly (`O(N²)` bounding-sphere tests: mixture RVEs hold hundreds of
+/// bodies).
+fn verify_convex_with(packing: &Packing, terms: Terms) -> Verification {
+    let (tol, claimed) = (terms.tol, terms.gap);
+    let mut out = Verification::new(packing.particles.len(), 0, tol);
+    for problem in terms.problems {
+        out.violate(problem);
+    }
     let ContainerRecord::Box { min, max, periodic } = &packing.container else {
         out.violate("cylinders are supported in periodic boxes only".into());
         return out;
@@ -809,33 +1040,47 @@ pub fn verify_convex(packing: &Packing) -> Verification {
     }
     out.packing_fraction =
         bodies.iter().map(|(_, b)| b.volume()).sum::<f64>() / (len.x * len.y * len.z);
-    let record =
-        |out: &mut Verification, i: usize, j: usize, a: &Convex, b: &Convex| match check_pair(a, b)
-        {
+    let record = |out: &mut Verification, i: usize, j: usize, a: &Convex, b: &Convex| {
+        let radii = a.radius() + b.radius();
+        match check_pair(a, b, tol) {
             PairCheck::Separated(gap) => {
                 if out.min_pair_gap.is_none_or(|m| gap < m) {
                     out.min_pair_gap = Some(gap);
                 }
-                let rel = gap / (a.radius() + b.radius());
+                let rel = gap / radii;
                 if out.min_pair_gap_relative.is_none_or(|m| rel < m) {
                     out.min_pair_gap_relative = Some(rel);
                 }
+                if claimed > 0.0 && gap < claimed - tol * radii {
+                    out.broken_claim(format!(
+                        "particles {i} and {j} (or images): the claimed min_gap {claimed} is \
+                         not certified (at least {gap:e} apart)"
+                    ));
+                }
             }
-            PairCheck::Overlapping => {
-                out.violate(format!("particles {i} and {j} (or images) overlap"))
-            }
+            PairCheck::Overlapping => out.overlap(format!(
+                "particles {i} and {j} (or images) overlap beyond the tolerance {tol:e}"
+            )),
             PairCheck::Undecided => out.violate(format!(
                 "particles {i} and {j}: separation could not be certified"
             )),
-        };
+        }
+    };
     let edges = [len.x, len.y, len.z];
-    let shifts = |d: &Vector3<f64>, reach: f64| lattice_shifts(d, reach, &edges, [true; 3]);
+    // Bodies whose bounding spheres are more than the claimed gap apart keep every promise.
+    let shifts =
+        |d: &Vector3<f64>, reach: f64| lattice_shifts(d, reach + claimed, &edges, [true; 3]);
     for (x, (i, a)) in bodies.iter().enumerate() {
         // A body against its own images (each ±t pair once).
-        for t in shifts(&Vector3::zeros(), 2.0 * a.bound()) {
-            let first = t.iter().copied().find(|v| *v != 0.0);
-            if first.is_some_and(|v| v > 0.0) {
-                record(&mut out, *i, *i, a, &a.shifted(t));
+        match shifts(&Vector3::zeros(), 2.0 * a.bound()) {
+            None => too_many_images(&mut out, *i, *i),
+            Some(own) => {
+                for t in own {
+                    let first = t.iter().copied().find(|v| *v != 0.0);
+                    if first.is_some_and(|v| v > 0.0) {
+                        record(&mut out, *i, *i, a, &a.shifted(t));
+                    }
+                }
             }
         }
         for (j, b) in &bodies[x + 1..] {
@@ -844,7 +1089,11 @@ pub fn verify_convex(packing: &Packing) -> Verification {
                 d[k] -= len[k] * (d[k] / len[k]).round();
             }
             let base = d - (b.center() - a.center());
-            for t in shifts(&d, a.bound() + b.bound()) {
+            let Some(images) = shifts(&d, a.bound() + b.bound()) else {
+                too_many_images(&mut out, *i, *j);
+                continue;
+            };
+            for t in images {
                 record(&mut out, *i, *j, a, &b.shifted(base + t));
             }
         }
@@ -893,6 +1142,7 @@ fn oriented_of(p: &ParticleRecord) -> Option<Oriented> {
     Some(Oriented {
         m,
         volume: 4.0 / 3.0 * std::f64::consts::PI * semi_axes[0] * semi_axes[1] * semi_axes[2],
+        a_min: semi_axes.iter().copied().fold(f64::INFINITY, f64::min),
     })
 }
 

@@ -1295,6 +1295,11 @@ fn bad_checkpoint_options_exit_2() {
             "--checkpoint-every",
         ),
         (
+            "interval no Duration holds",
+            vec!["--checkpoint-every", "1e300"],
+            "[0, 1e9]",
+        ),
+        (
             "NaN interval",
             vec!["--checkpoint-every", "nan"],
             "not a number of seconds",

@@ -3,6 +3,9 @@
 //! Every configuration is judged by `verify::verify` (GJK separating-plane certificates,
 //! no code shared with `geometry::cylinder`) and by the exact typed tests.
 
+mod common;
+
+use common::recomputed_phi;
 use densepack::geometry::cylinder::{overlaps, Cylinder, Shape, Sphere};
 use densepack::io::scene::{AnyScene, MixtureScene, SceneError};
 use densepack::protocol::mixture::relax::{random_rve, relax, RelaxSettings};
@@ -371,6 +374,10 @@ fn cylinder_count_bound_and_bad_inputs_are_clear_errors() {
         let (got, message) = field_of(scene(&base.replace(from, to)));
         assert_eq!(got, field, "{to}: {message}");
     }
+    // A limit no `Duration` holds (found by tests/arbitrary_input.rs: it panicked).
+    let (got, message) = field_of(scene(&format!("{base}\ntime_limit_seconds = 1e300")));
+    assert_eq!(got, "mixture.time_limit_seconds");
+    assert!(message.contains("(0, 1e9]"), "{message}");
     let (got, _) = field_of(scene(&base.replace("aspect_ratio = 3.0", "")));
     assert_eq!(got, "mixture.aspect_ratio");
     let (got, _) = field_of(scene(&format!(
@@ -426,7 +433,7 @@ fn cli_runs_the_55_percent_scene_and_rejects_bad_ones() {
         String::from_utf8_lossy(&run.stderr)
     );
     let mut packing = Packing::read(&out).unwrap();
-    assert!((packing.stats.packing_fraction - 0.55).abs() < 1e-12);
+    assert!((recomputed_phi(&packing) - 0.55).abs() < 1e-12);
     let cylinders = packing
         .particles
         .iter()

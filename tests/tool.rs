@@ -292,7 +292,7 @@ fn init_concrete_is_the_take_phase_scene_and_packs_to_its_grading_curve() {
     );
     // φ_eff = 0.7 (1 − 0.56) = 0.308 targeted; the draw overshoots by less than one 4 mm grain.
     let packing = densepack::io::packing::Packing::read(&out).unwrap();
-    let phi = packing.stats.packing_fraction;
+    let phi = common::recomputed_phi(&packing);
     let one_grain = std::f64::consts::PI / 6.0 * 64.0 / 125_000.0;
     assert!((0.308..0.308 + one_grain).contains(&phi), "{phi}");
     // The sieve curve follows B16 between 4 and 16 mm: 260 grains, each class's volume exact

@@ -3,6 +3,7 @@
 use densepack::analysis::{gap_histogram, sieve_curve, sieve_diameter, SievePoint};
 use densepack::io::packing::Packing;
 use densepack::protocol::take_phase::GradingCurve;
+use densepack::verify::VerifyOptions;
 use std::path::Path;
 use std::process::ExitCode;
 
@@ -41,8 +42,25 @@ pub fn sieve_against_curve(
     Ok((name, d_min, points, worst))
 }
 
-/// Runs `verify`; exit 1 on a violated constraint, 2 on an unreadable packing or curve.
-pub fn run(path: &Path, json: bool, grading: Option<&str>, d_min: Option<f64>) -> ExitCode {
+/// How a smallest gap relative to the radii reads against the tolerance: an overlap beyond
+/// it, a contact within it, or nothing to add.
+fn verdict(relative: Option<f64>, tolerance: f64) -> &'static str {
+    match relative {
+        Some(g) if g < -tolerance => ": overlap",
+        Some(g) if g < 0.0 => ": within the tolerance",
+        _ => "",
+    }
+}
+
+/// Runs `verify` with relative tolerance `tolerance`; exit 1 on a violated constraint, 2 on
+/// an unreadable or malformed packing or curve.
+pub fn run(
+    path: &Path,
+    json: bool,
+    grading: Option<&str>,
+    d_min: Option<f64>,
+    tolerance: f64,
+) -> ExitCode {
     let packing = match Packing::read(path) {
         Ok(p) => p,
         Err(e) => {
@@ -58,7 +76,7 @@ pub fn run(path: &Path, json: bool, grading: Option<&str>, d_min: Option<f64>) -
             return ExitCode::from(2);
         }
     };
-    let v = densepack::verify::verify(&packing);
+    let v = densepack::verify::verify_with(&packing, &VerifyOptions { tolerance });
     let histogram = gap_histogram(&v.nearest_gap_relative);
     if json {
         let mut value = serde_json::to_value(&v).expect("serialisable");
@@ -74,13 +92,29 @@ pub fn run(path: &Path, json: bool, grading: Option<&str>, d_min: Option<f64>) -
         );
     } else {
         outln!(
-            "particles {}  packing_fraction {:.6}  min pair gap {:.3e} (relative {:.3e})  min wall gap {}  violations {}",
+            "particles {}  packing_fraction {:.6}  tolerance {:e} (relative)",
             v.particles,
             v.packing_fraction,
+            v.tolerance
+        );
+        outln!(
+            "min pair gap {:.3e} (relative {:.3e}{})  min wall gap {}",
             v.min_pair_gap.unwrap_or(f64::NAN),
             v.min_pair_gap_relative.unwrap_or(f64::NAN),
-            v.min_wall_gap.map_or("none".into(), |g| format!("{g:.3e}")),
-            v.violation_count
+            verdict(v.min_pair_gap_relative, v.tolerance),
+            match (v.min_wall_gap, v.min_wall_gap_relative) {
+                (Some(g), Some(r)) => format!(
+                    "{g:.3e} (relative {r:.3e}{})",
+                    verdict(Some(r), v.tolerance)
+                ),
+                _ => "none".into(),
+            }
+        );
+        outln!(
+            "violations {} (overlaps {}, gap claims {})",
+            v.violation_count,
+            v.overlap_count,
+            v.gap_claim_count
         );
         for msg in &v.violations {
             outln!("  {msg}");

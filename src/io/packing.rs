@@ -46,6 +46,57 @@ fn placed(p: [f64; 3], origin: [f64; 3], scale: &impl Fn(f64) -> f64) -> [f64; 3
 }
 
 impl ContainerRecord {
+    /// Whether the container is a body of positive, finite size: a box with finite corners and
+    /// `max > min` on every axis, a cylinder with a finite base centre and a finite radius and
+    /// height > 0. The error names the offending field (`container.max[1]`) and what it must
+    /// be; every volume, wall distance and minimum image of the checks assumes this.
+    pub fn check(&self) -> Result<(), String> {
+        match self {
+            Self::Box { min, max, .. } => {
+                for k in 0..3 {
+                    for (name, v) in [("min", min[k]), ("max", max[k])] {
+                        if !v.is_finite() {
+                            return Err(format!("container.{name}[{k}] = {v} must be finite"));
+                        }
+                    }
+                    // Negated: a box of zero or negative extent is refused, and one whose
+                    // extent overflows (every cell and image count would be infinite).
+                    if !(max[k] > min[k] && (max[k] - min[k]).is_finite()) {
+                        return Err(format!(
+                            "container.max[{k}] = {} must be > container.min[{k}] = {} \
+                             (a box of positive, finite extent)",
+                            max[k], min[k]
+                        ));
+                    }
+                }
+                Ok(())
+            }
+            Self::Cylinder {
+                base_center,
+                radius,
+                height,
+            } => {
+                if let Some(k) = (0..3).find(|&k| !base_center[k].is_finite()) {
+                    return Err(format!(
+                        "container.base_center[{k}] = {} must be finite",
+                        base_center[k]
+                    ));
+                }
+                // The diameter must be finite too (the bounding box's extent).
+                for (name, v) in [("radius", 2.0 * radius), ("height", *height)] {
+                    if !(v.is_finite() && v > 0.0) {
+                        let v = if name == "radius" { *radius } else { v };
+                        return Err(format!(
+                            "container.{name} = {v} must be a finite number > 0 \
+                             (a cylinder of finite size)"
+                        ));
+                    }
+                }
+                Ok(())
+            }
+        }
+    }
+
     /// The container in another frame: every length `x` becomes `scale(x)` and every point
     /// `p` becomes `origin + scale(p)` (`scale`: a change of unit, or the identity).
     pub fn in_frame(self, origin: [f64; 3], scale: impl Fn(f64) -> f64) -> Self {
@@ -255,6 +306,24 @@ impl Packing {
         self.wall_gap.unwrap_or(0.5 * self.min_gap)
     }
 
+    /// Whether the file is well formed enough to be checked: a valid container
+    /// ([`ContainerRecord::check`]) and gap claims that are finite and ≥ 0 (`min_gap`,
+    /// `wall_gap`). A negative claim is not a weaker promise but a malformed file: the
+    /// overlap check never depends on it. The error names the field and its allowed range.
+    pub fn check(&self) -> Result<(), String> {
+        self.container.check()?;
+        for (name, v) in [("min_gap", Some(self.min_gap)), ("wall_gap", self.wall_gap)] {
+            if let Some(v) = v {
+                if !(v.is_finite() && v >= 0.0) {
+                    return Err(format!(
+                        "{name} = {v} must be a finite number ≥ 0 (a gap the particles keep)"
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// Reads and checks a packing file.
     pub fn read(path: &Path) -> Result<Self, PackingError> {
         let text = std::fs::read_to_string(path).map_err(|source| PackingError::Io {
@@ -277,6 +346,7 @@ impl Packing {
                 packing.format, packing.version
             )));
         }
+        packing.check().map_err(format_err)?;
         Ok(packing)
     }
 

@@ -195,3 +195,40 @@ pub fn assert_gap_and_containment(packing: &Packing) -> f64 {
     }
     smallest
 }
+
+/// The packing fraction of a packing recomputed from its particles and its container, written
+/// for the tests and independent of the run's statistics and of `densepack::verify`: the
+/// volumes `4/3 π r³` (sphere), `4/3 π abc` (ellipsoid), `π r² · 2|half_axis|` (cylinder) over
+/// the box `Π (max − min)` or the cylinder `π R² H`. Also asserts that the statistics the run
+/// wrote agree with it to 1e-12 relative (their φ is the same sum in the kernel's units).
+pub fn recomputed_phi(packing: &Packing) -> f64 {
+    use densepack::io::packing::ContainerRecord;
+    use std::f64::consts::PI;
+    let solid: f64 = packing
+        .particles
+        .iter()
+        .map(|p| match p {
+            ParticleRecord::Sphere { radius, .. } => 4.0 / 3.0 * PI * radius.powi(3),
+            ParticleRecord::Ellipsoid { semi_axes, .. } => {
+                4.0 / 3.0 * PI * semi_axes[0] * semi_axes[1] * semi_axes[2]
+            }
+            ParticleRecord::Cylinder {
+                radius, half_axis, ..
+            } => {
+                let length = 2.0 * half_axis.iter().map(|x| x * x).sum::<f64>().sqrt();
+                PI * radius * radius * length
+            }
+        })
+        .sum();
+    let volume = match &packing.container {
+        ContainerRecord::Box { min, max, .. } => (0..3).map(|k| max[k] - min[k]).product(),
+        ContainerRecord::Cylinder { radius, height, .. } => PI * radius * radius * height,
+    };
+    let phi = solid / volume;
+    let written = packing.stats.packing_fraction;
+    assert!(
+        (written - phi).abs() <= 1e-12 * phi,
+        "the run wrote φ = {written}, its particles fill {phi}"
+    );
+    phi
+}

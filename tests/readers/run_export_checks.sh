@@ -4,26 +4,39 @@
 # and .csv. Checks are in check_exports.py. Called by .ci/run after the Rust tests.
 #
 # Readers: Debian's gmsh (installed with apt-get when missing and running as root), numpy
-# and meshio from PyPI (pip install when missing). On CI every reader must be there; on a
-# developer machine without apt/root the script says what is missing and fails.
+# and meshio from PyPI, installed into a virtual environment of the project
+# (target/ci-venv, kept between runs), never into the system Python: a fresh Debian's Python
+# is "externally managed" and refuses pip there. Debian's python3 needs the python3-venv
+# package for `python3 -m venv` (installed with apt-get when missing and running as root).
+# On a developer machine without apt/root the script says what is missing and fails.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 
-need_install=()
-command -v gmsh >/dev/null 2>&1 || need_install+=(gmsh)
-if ((${#need_install[@]})); then
+apt_install() { # packages...
   if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
-    echo "installing ${need_install[*]} (Debian)"
+    echo "installing $* (Debian)"
     apt-get update -qq
-    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${need_install[@]}" >/dev/null
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "$@" >/dev/null
   else
-    echo "error: gmsh is missing and cannot be installed here (needs root and apt-get): install Debian's gmsh" >&2
+    echo "error: $* missing and cannot be installed here (needs root and apt-get)" >&2
     exit 1
   fi
-fi
-if ! python3 -c "import numpy, meshio" >/dev/null 2>&1; then
-  echo "installing numpy and meshio (PyPI)"
-  python3 -m pip install --quiet numpy meshio
+}
+
+command -v gmsh >/dev/null 2>&1 || apt_install gmsh
+command -v python3 >/dev/null 2>&1 || apt_install python3 python3-venv
+
+venv=target/ci-venv
+python=$venv/bin/python
+if ! "$python" -c "import numpy, meshio" >/dev/null 2>&1; then
+  rm -rf "$venv"
+  if ! python3 -m venv "$venv" >/dev/null 2>&1; then
+    rm -rf "$venv"
+    apt_install python3-venv
+    python3 -m venv "$venv"
+  fi
+  echo "installing numpy and meshio (PyPI) into $venv"
+  "$python" -m pip install --quiet numpy meshio
 fi
 
 bin=target/release/densepack
@@ -57,7 +70,7 @@ mesh() { # packing, name, export options...
   "$bin" export "$work/$packing.json" --format gmsh --out "$work/$name.geo" "$@" >/dev/null
   gmsh -v 1 -3 -order 2 "$work/$name.geo" -o "$work/$name.msh" >"$work/$name.log" 2>&1 ||
     { cat "$work/$name.log" >&2; return 1; }
-  python3 "$check" gmsh "$work/$packing.json" "$work/$name.msh" "$@"
+  "$python" "$check" gmsh "$work/$packing.json" "$work/$name.msh" "$@"
 }
 
 run_check "gmsh periodic" mesh periodic periodic
@@ -74,17 +87,17 @@ run_check "gmsh sphere + cylinder mixture, periodic" mesh mixture mixture
 
 for packing in periodic cylinder ellipsoids ellipsoids_walls mixture; do
   "$bin" export "$work/$packing.json" --format vtk --out "$work/$packing.vtu" >/dev/null
-  run_check "vtk $packing" python3 "$check" vtk "$work/$packing.json" "$work/$packing.vtu"
+  run_check "vtk $packing" "$python" "$check" vtk "$work/$packing.json" "$work/$packing.vtu"
   if [ "$packing" = periodic ] || [ "$packing" = cylinder ]; then # x,y,z,r: spheres only
     "$bin" export "$work/$packing.json" --format csv --out "$work/$packing.csv" >/dev/null
-    run_check "csv $packing" python3 "$check" csv "$work/$packing.json" "$work/$packing.csv"
+    run_check "csv $packing" "$python" "$check" csv "$work/$packing.json" "$work/$packing.csv"
   fi
   "$bin" export "$work/$packing.json" --format npy --voxels 48 --out "$work/$packing.npy" >/dev/null
-  run_check "npy $packing" python3 "$check" npy "$work/$packing.json" "$work/$packing.npy"
+  run_check "npy $packing" "$python" "$check" npy "$work/$packing.json" "$work/$packing.npy"
   "$bin" export "$work/$packing.json" --format raw --labels particle --voxels 40 --out "$work/$packing.raw" >/dev/null
-  run_check "raw $packing" python3 "$check" raw "$work/$packing.json" "$work/$packing.raw"
+  run_check "raw $packing" "$python" "$check" raw "$work/$packing.json" "$work/$packing.raw"
   "$bin" export "$work/$packing.json" --format npy --partial-volume 3 --voxels 24 --out "$work/$packing.pv.npy" >/dev/null
-  run_check "partial volume $packing" python3 "$check" npy "$work/$packing.json" "$work/$packing.pv.npy"
+  run_check "partial volume $packing" "$python" "$check" npy "$work/$packing.json" "$work/$packing.pv.npy"
 done
 
 echo "exports: $passed passed, 0 failed"
