@@ -95,7 +95,12 @@ fn text(r: &JammingReport) -> String {
         "Q6 {:.4} over {} bonds (random directions {:.4}, FCC {Q6_FCC})\n",
         r.q6, r.bonds, r.q6_random
     );
-    if let Some(lp) = &r.lp {
+    if let Some(lp) = r.lp.as_ref().filter(|lp| lp.seconds == 0.0 && !lp.jammed) {
+        s += &format!(
+            "LP test: NOT jammed, by counting: {} (floppy motions exist)\n",
+            lp.status[0].trim_start_matches("not solved: ")
+        );
+    } else if let Some(lp) = &r.lp {
         s += &format!(
             "LP test: {} (largest opening per contact {:.2e}, largest load work {:.2e}; \
              solver {} / {}, {:.1} s)\n",
