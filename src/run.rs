@@ -661,15 +661,15 @@ where
         }
         let stage = spec.to_stage(full_size_fraction);
         let progress = progress.unwrap_or_else(|| kernel.start_stage(&stage));
-        // Every radius gains `rate` per unit time in a gap stage (absolute growth); the gap
-        // is reported in the units of the scene as written.
-        let gap_rate = spec.rate.filter(|_| spec.opens_gap());
+        // In a gap stage (absolute growth) every radius has gained `∫ rate dt`
+        // (`Progress::grown`); the gap is reported in the units of the scene as written.
+        let opens_gap = spec.opens_gap();
         let units = Units::of(job.scene);
         let mut stride = 1usize;
         let mut barrier = 0usize;
         let report = kernel.continue_stage(&stage, progress, &mut |kernel, p| {
             let mut observed = p.observed(kernel);
-            observed.gap = gap_rate.map(|rate| units.to_scene(2.0 * rate * observed.stage_time));
+            observed.gap = opens_gap.then(|| units.to_scene(2.0 * observed.grown));
             on_progress(k, &observed);
             if let Some(gap) = observed.gap {
                 if barrier.is_multiple_of(stride) {

@@ -9,7 +9,7 @@ use common::{carnahan_starling, kolafa, recomputed_phi, run_toml};
 use densepack::boundary::PeriodicBox;
 use densepack::io::packing::{Packing, ParticleRecord};
 use densepack::io::scene::{Scene, SceneError};
-use densepack::kernel::{Edmd, KernelConfig, Limits, Stage, StopReason, Until};
+use densepack::kernel::{Edmd, KernelConfig, Limits, RateSchedule, Stage, StopReason, Until};
 use densepack::protocol::rsa::rsa_spheres;
 use densepack::queue::CalendarQueue;
 use densepack::shape::{Ellipsoid, Growth, Spin, Vec3};
@@ -88,6 +88,7 @@ fn collisions_conserve_momentum_and_energy() {
         Edmd::with_spins(centres, vec![shape; n], spins, boundary, config, &mut rng);
     let grow = Stage {
         growth: Growth::Relative(0.05),
+        schedule: RateSchedule::Fixed,
         until: Until {
             packing_fraction: Some(0.3),
             ..Until::default()
@@ -105,6 +106,7 @@ fn collisions_conserve_momentum_and_energy() {
     let rot0 = kernel.rotational_kinetic_twice();
     let equilibrate = Stage {
         growth: Growth::None,
+        schedule: RateSchedule::Fixed,
         until: Until {
             collisions_per_particle: Some(200.0),
             ..Until::default()

@@ -5,7 +5,7 @@ mod common;
 
 use common::{assert_no_overlap, carnahan_starling, kolafa, recomputed_phi, run_toml};
 use densepack::boundary::PeriodicBox;
-use densepack::kernel::{Edmd, KernelConfig, Limits, Stage, StopReason, Until};
+use densepack::kernel::{Edmd, KernelConfig, Limits, RateSchedule, Stage, StopReason, Until};
 use densepack::protocol::rsa::rsa_spheres;
 use densepack::queue::CalendarQueue;
 use densepack::shape::{Growth, Sphere, Vec3};
@@ -101,6 +101,7 @@ fn equilibrium_run_conserves_momentum_and_energy_over_a_million_collisions() {
         Edmd::new(centres, shapes, boundary, KernelConfig::default(), &mut rng);
     let grow = Stage {
         growth: Growth::Relative(0.1),
+        schedule: RateSchedule::Fixed,
         until: Until {
             packing_fraction: Some(0.4),
             ..Until::default()
@@ -118,6 +119,7 @@ fn equilibrium_run_conserves_momentum_and_energy_over_a_million_collisions() {
     let scale: f64 = kernel.particles().iter().map(|p| p.vel.norm()).sum();
     let equilibrium = Stage {
         growth: Growth::None,
+        schedule: RateSchedule::Fixed,
         until: Until {
             collisions_per_particle: Some(500.0),
             ..Until::default()

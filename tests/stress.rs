@@ -26,7 +26,7 @@ mod common;
 use densepack::boundary::{Boundary, PeriodicBox, WalledBox};
 use densepack::io::packing::{Packing, ParticleRecord};
 use densepack::kernel::{
-    Edmd, EventCounts, KernelConfig, Limits, Particle, Stage, StopReason, Until,
+    Edmd, EventCounts, KernelConfig, Limits, Particle, RateSchedule, Stage, StopReason, Until,
 };
 use densepack::protocol::mixture::relax::{relax, RelaxSettings};
 use densepack::protocol::mixture::{
@@ -289,6 +289,7 @@ fn walled_cube(min: f64, edge: f64) -> WalledBox {
 fn grow_to_jamming(rate: f64) -> Stage {
     Stage {
         growth: Growth::Relative(rate),
+        schedule: RateSchedule::Fixed,
         until: Until {
             reduced_pressure: Some(1e12),
             ..Until::default()
@@ -305,6 +306,7 @@ fn grow_to_jamming(rate: f64) -> Stage {
 fn equilibrate(collisions_per_particle: f64) -> Stage {
     Stage {
         growth: Growth::None,
+        schedule: RateSchedule::Fixed,
         until: Until {
             collisions_per_particle: Some(collisions_per_particle),
             ..Until::default()
@@ -638,6 +640,7 @@ fn coordinates_offset_by_a_million() {
     let d = diameter_for(n, 0.3, edge.powi(3));
     let to_dense = Stage {
         growth: Growth::Relative(0.05),
+        schedule: RateSchedule::Fixed,
         until: Until {
             packing_fraction: Some(0.6),
             ..Until::default()
@@ -769,6 +772,7 @@ fn seeded_ellipsoids<B: Boundary>(
 fn grow_towards_jamming(z: f64, cap: Option<f64>, events: u64) -> Stage {
     Stage {
         growth: Growth::Relative(0.05),
+        schedule: RateSchedule::Fixed,
         until: Until {
             reduced_pressure: Some(z),
             packing_fraction: cap,

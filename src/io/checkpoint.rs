@@ -32,7 +32,9 @@ pub const MAGIC: &[u8] = b"densepack-checkpoint\n";
 /// would resume in a numbering the uninterrupted run never had.
 /// 5: particles store their state at kernel time 0 and no update time.
 /// 6: a neighbour-list sphere's centre and radius are one record.
-pub const CHECKPOINT_VERSION: u32 = 6;
+/// 7: a stage in progress stores its current growth rate and growth clock (pressure-adaptive
+/// rates).
+pub const CHECKPOINT_VERSION: u32 = 7;
 
 /// Everything of a checkpoint but the kernel.
 #[derive(Clone, Debug, Serialize, Deserialize)]

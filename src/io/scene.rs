@@ -68,7 +68,9 @@
 //! Every table rejects unknown keys; [`Scene::validate`] names the offending field and its
 //! allowed range.
 
-use crate::kernel::{KernelConfig, Limits, Stage, Until, JAMMING_PRESSURE, MAX_SKIN};
+use crate::kernel::{
+    KernelConfig, Limits, PressureAdaptive, RateSchedule, Stage, Until, JAMMING_PRESSURE, MAX_SKIN,
+};
 use crate::protocol::take_phase::{GradingSpec, TakeError, TakeParams, TakePhase};
 use crate::queue::QueueKind;
 use crate::shape::{Growth, MassRule, Predictor, CONTACT_TOLERANCE, MAX_CONTACT_TOLERANCE};
@@ -468,6 +470,24 @@ pub struct StageSpec {
     /// see every grain grow at `2λ` times the pair rate, so the wall gap is `λ·Δd(t)` at
     /// every time, and `λ·Δd_max` for `max_gap`.
     pub wall_gap_fraction: Option<f64>,
+    /// A rate that falls as the reduced pressure rises (jamming and Δd maximisation):
+    /// `rate·(onset_pressure/Z)^exponent` above `onset_pressure`, never below `min_rate`;
+    /// set at every time barrier. Goals: `reduced_pressure`, `max_gap` or
+    /// `collisions_per_particle` (a fraction, time or gap goal needs a known rate).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub adaptive: Option<AdaptiveSpec>,
+}
+
+/// The pressure-adaptive rate of a stage ([`crate::kernel::PressureAdaptive`]).
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct AdaptiveSpec {
+    /// Reduced pressure above which the rate falls, in `[1, 1e12]`.
+    pub onset_pressure: f64,
+    /// Exponent of the fall, in `(0, 4]`.
+    pub exponent: f64,
+    /// Smallest rate, in `(0, rate]` and within the allowed range of rates.
+    pub min_rate: f64,
 }
 
 /// A scene that cannot be run, naming the field.
@@ -1133,6 +1153,49 @@ impl Scene {
                     }
                 }
             }
+            if let Some(a) = &s.adaptive {
+                let rate = s
+                    .rate
+                    .filter(|_| s.growth != GrowthKind::None)
+                    .ok_or_else(|| {
+                        invalid(f("adaptive"), "needs a growing stage (growth and rate)")
+                    })?;
+                within(
+                    &f("adaptive.onset_pressure"),
+                    a.onset_pressure,
+                    [1.0, 1e12],
+                    "",
+                )?;
+                if !(a.exponent > 0.0 && a.exponent <= 4.0) {
+                    return Err(invalid(
+                        f("adaptive.exponent"),
+                        format!("= {} is outside the allowed range (0, 4]", show(a.exponent)),
+                    ));
+                }
+                if !(a.min_rate > 0.0 && a.min_rate <= rate) {
+                    return Err(invalid(
+                        f("adaptive.min_rate"),
+                        format!(
+                            "= {} is outside the allowed range (0, rate = {}]",
+                            show(a.min_rate),
+                            show(rate)
+                        ),
+                    ));
+                }
+                let u = &s.until;
+                if u.packing_fraction.is_some()
+                    || u.time.is_some()
+                    || u.full_size.is_some()
+                    || u.gap.is_some()
+                {
+                    return Err(invalid(
+                        f("adaptive"),
+                        "applies to goals reduced_pressure, max_gap and \
+                         collisions_per_particle: a packing fraction, time or gap goal is \
+                         placed with a fixed rate",
+                    ));
+                }
+            }
             let u = &s.until;
             if u.packing_fraction.is_none()
                 && u.reduced_pressure.is_none()
@@ -1462,6 +1525,14 @@ impl StageSpec {
         }
         Stage {
             growth,
+            schedule: match self.adaptive {
+                Some(a) => RateSchedule::PressureAdaptive(PressureAdaptive {
+                    onset: a.onset_pressure,
+                    exponent: a.exponent,
+                    min_rate: a.min_rate,
+                }),
+                None => RateSchedule::Fixed,
+            },
             until,
             limits: Limits {
                 events: self.max_events.unwrap_or(u64::MAX),

@@ -256,6 +256,7 @@ mod tests {
         };
         let stage = Stage {
             growth: Growth::Relative(0.05),
+            schedule: crate::kernel::RateSchedule::Fixed,
             until: Until {
                 reduced_pressure: Some(1e6),
                 ..Until::default()
@@ -277,6 +278,7 @@ mod tests {
         };
         let stage = Stage {
             growth: Growth::None,
+            schedule: crate::kernel::RateSchedule::Fixed,
             until: Until {
                 collisions_per_particle: Some(200.0),
                 ..Until::default()

@@ -268,6 +268,7 @@ mod tests {
         let (vel, omega) = (kernel.particles[0].vel, kernel.particles[0].spin.omega);
         let stage = crate::kernel::Stage {
             growth: Growth::Absolute(0.1),
+            schedule: crate::kernel::RateSchedule::Fixed,
             until: crate::kernel::Until {
                 time: Some(expected + 0.02),
                 ..Default::default()

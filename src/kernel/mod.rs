@@ -68,7 +68,8 @@ mod stage;
 pub use checkpoint::{KernelSnapshot, SnapshotError};
 use local::{EventKind, LocalEvent, LocalList, LocalLists, LOCAL_CAPACITY};
 pub use stage::{
-    Limits, Progress, Stage, StageProgress, StageReport, StopReason, Until, JAMMING_PRESSURE,
+    Limits, PressureAdaptive, Progress, RateSchedule, Stage, StageProgress, StageReport,
+    StopReason, Until, JAMMING_PRESSURE,
 };
 
 use crate::boundary::{Boundary, WallId};

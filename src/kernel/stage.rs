@@ -54,11 +54,51 @@ impl Default for Limits {
     }
 }
 
+/// How a growing stage sets its rate at each time barrier.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum RateSchedule {
+    /// The rate of [`Stage::growth`] throughout.
+    #[default]
+    Fixed,
+    /// The rate falls as the reduced pressure rises ([`PressureAdaptive::rate`]).
+    PressureAdaptive(PressureAdaptive),
+}
+
+/// A growth rate that falls as the reduced pressure `Z` rises, so that the particles relax
+/// between increments near jamming (the protocols of Donev, Torquato & Stillinger and of
+/// Skoge et al., PRE 74, 041127, 2006: fast compression to moderate pressure, then slower
+/// growth). Near jamming a pair's gap is about `d/Z`, and growth at a relative rate `γ`
+/// closes it in a time `1/(γZ)`, while the collective rearrangements that make the contact
+/// network rigid need a time that does not shrink with `Z`: a fixed rate freezes a floppy
+/// network (`densepack analyse` measures it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PressureAdaptive {
+    /// Reduced pressure below which the stage grows at its full rate.
+    pub onset: f64,
+    /// Exponent `α` of the fall: `rate = rate₀·(onset/Z)^α` above the onset.
+    pub exponent: f64,
+    /// Smallest rate (same unit as the stage's rate).
+    pub min_rate: f64,
+}
+
+impl PressureAdaptive {
+    /// The rate for base rate `base` at reduced pressure `z`:
+    /// `clamp(base·(onset/z)^α, min_rate, base)`; `base` before the first measurement.
+    pub fn rate(&self, base: f64, z: f64) -> f64 {
+        if z.is_nan() || z <= self.onset {
+            return base;
+        }
+        (base * (self.onset / z).powf(self.exponent)).clamp(self.min_rate.min(base), base)
+    }
+}
+
 /// One stage of a run.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Stage {
-    /// Growth protocol.
+    /// Growth protocol (with the stage's full rate).
     pub growth: Growth,
+    /// How the rate follows the pressure.
+    pub schedule: RateSchedule,
     /// Goal.
     pub until: Until,
     /// Failure limits.
@@ -192,6 +232,11 @@ pub struct Progress {
     pub counts: EventCounts,
     /// Wall-clock seconds of the stage so far.
     pub wall_seconds: f64,
+    /// The growth rate now (it changes at barriers under [`RateSchedule::PressureAdaptive`]).
+    pub rate: f64,
+    /// `∫ rate dt` over the stage so far: under absolute growth, the radius every particle
+    /// has gained.
+    pub grown: f64,
     /// The gap Δd between the grains at their true sizes that a gap stage has opened so far
     /// (twice the radius each grain gained, paper 001 Eq. 31); `None` outside gap stages.
     /// The kernel does not know which stages open gaps: `crate::run` fills it in.
@@ -228,6 +273,12 @@ pub struct StageProgress {
     frozen_checks: u32,
     /// Wall-clock seconds spent on the stage before the current continuation.
     wall_seconds: f64,
+    /// The growth rate of the current interval.
+    rate: f64,
+    /// `∫ rate dt / rate`: the time the stage would have taken to grow as far at the current
+    /// rate (equal to `stage_time` under a fixed rate). The walls of a gap stage lag the
+    /// grains by a fraction of `rate·growth_clock` (`Stage::wall_growth`).
+    growth_clock: f64,
 }
 
 impl StageProgress {
@@ -243,6 +294,8 @@ impl StageProgress {
             reduced_pressure: self.last_z,
             counts: kernel.counters.since(&self.counts_before),
             wall_seconds: self.wall_seconds,
+            rate: self.rate,
+            grown: self.rate * self.growth_clock,
             gap: None,
         }
     }
@@ -307,6 +360,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             time_at_check: self.elapsed,
             frozen_checks: 0,
             wall_seconds: 0.0,
+            rate: stage.growth.rate(),
+            growth_clock: 0.0,
         }
     }
 
@@ -358,7 +413,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 self.counters.neighbour_list_updates,
             );
             let failures_before = S::numerical_failures();
-            self.stage_clock = progress.stage_time;
+            self.stage_clock = progress.growth_clock;
             self.begin_interval(this);
             // An interval that takes far more events than planned ends early: the approach
             // to jamming inside one interval (the collision rate diverges there) would
@@ -390,6 +445,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             self.counters.prediction_failures += S::numerical_failures() - failures_before;
             self.counters.barriers += 1;
             progress.stage_time += t_end;
+            progress.growth_clock += t_end;
             if stage.thermostat && growing {
                 self.rescale_temperature();
             }
@@ -433,6 +489,19 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 // Nothing moves and nothing grows: no event will ever happen.
                 report_reason = Some(StopReason::Stalled);
                 break;
+            }
+            if let RateSchedule::PressureAdaptive(law) = stage.schedule {
+                let rate = law.rate(stage.growth.rate(), progress.last_z);
+                if rate != progress.rate {
+                    // The kernel is synchronised at time 0: the new rate starts here, as a
+                    // new stage would. The clock is rescaled so that `rate·growth_clock`
+                    // stays the growth so far.
+                    progress.growth_clock *= progress.rate / rate;
+                    progress.rate = rate;
+                    for p in &mut self.particles {
+                        p.shape.set_growth(0.0, stage.growth.with_rate(rate));
+                    }
+                }
             }
             // Adapt the interval to hold about `target_events` events.
             let factor = if events == 0 {

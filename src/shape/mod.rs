@@ -63,6 +63,25 @@ pub enum Growth {
     Absolute(f64),
 }
 
+impl Growth {
+    /// The rate (1/time for relative growth, length/time for absolute growth; 0 for none).
+    pub fn rate(self) -> f64 {
+        match self {
+            Self::None => 0.0,
+            Self::Relative(r) | Self::Absolute(r) => r,
+        }
+    }
+
+    /// The same kind of growth at another rate.
+    pub fn with_rate(self, rate: f64) -> Self {
+        match self {
+            Self::None => Self::None,
+            Self::Relative(_) => Self::Relative(rate),
+            Self::Absolute(_) => Self::Absolute(rate),
+        }
+    }
+}
+
 /// A moving, growing hard particle shape that the EDMD kernel can drive.
 ///
 /// Implementers guarantee: sizes are non-negative and non-decreasing in `t` over any window
