@@ -743,6 +743,8 @@ where
 fn provenance(scene: &impl serde::Serialize, seed: u64, timings: Timings) -> Provenance {
     Provenance {
         densepack_version: env!("CARGO_PKG_VERSION").into(),
+        // Set by build.rs when built in a git checkout.
+        git_commit: option_env!("DENSEPACK_GIT_COMMIT").map(Into::into),
         seed,
         scene: serde_json::to_value(scene).expect("a scene serialises"),
         timings,
