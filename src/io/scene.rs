@@ -533,7 +533,7 @@ pub const RATE_RANGE: [f64; 2] = [1e-6, 1e6];
 /// Allowed `events_per_particle_per_interval`. A stage checks its goals and limits only at
 /// time barriers, and an interval ends early only after 16 times its planned events: at
 /// 10³⁰⁰ a jamming run never reached a barrier (measured: 11 M events for 100 spheres until
-/// its wall-clock limit stopped it). 1–16 were measured (BENCHMARKS.md, tuning); the range
+/// its wall-clock limit stopped it). 1–16 were measured (BENCHMARKS.md, "Defaults"); the range
 /// leaves two to three orders of magnitude either side.
 pub const EVENTS_PER_INTERVAL_RANGE: [f64; 2] = [1e-2, 1e3];
 
