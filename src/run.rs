@@ -4,7 +4,7 @@
 //! monomorphised for them: a fully periodic box gets [`PeriodicBox`] (no wall code at all).
 //! Ellipsoid scenes go through [`ellipsoid`] with the same stage loop.
 //!
-//! The kernel runs relative to the container's origin ([`container_origin`]) and in the
+//! The kernel runs relative to the container's origin (`container_origin`) and in the
 //! scene's reduced lengths ([`Units`]: every length divided by `ℓ = 10^E`, exactly under
 //! decimal changes of unit); the packing is scaled and translated back when it is written. Sphere and ellipsoid runs can write checkpoints at
 //! time barriers and be resumed from them ([`run_scene_checkpointed`], [`resume_run`]).

@@ -139,7 +139,7 @@ fn default_neighbour_skin() -> f64 {
 /// The container of a scene, written as a table with a `type` key (`type = "box"`).
 ///
 /// The derived serde impls use the externally tagged form (`{ box = { size = … } }`);
-/// [`deserialize_container`] and [`serialize_container`] turn the scene's `type` key into
+/// `deserialize_container` and `serialize_container` turn the scene's `type` key into
 /// that form and back, so that errors inside the table name their field
 /// (`container.size[1]: invalid type …`), which serde's internally tagged enums cannot do.
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]

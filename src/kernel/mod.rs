@@ -39,7 +39,7 @@
 //! Shapes that may grow longer than half the box ([`Collidable::PERIODIC_IMAGES`]) switch to
 //! image-aware lists at the barrier where the list spheres reach half the shortest periodic
 //! edge: entries then name a partner *and* its periodic image, including the particle's own
-//! images ([`images`]).
+//! images (`images`).
 //!
 //! Invalidation never scans the queue: a particle's own events go with its local list, and
 //! events of others that name it are recognised as stale by the counter.
