@@ -7,7 +7,8 @@
 //!
 //! Without a scene it packs 2000 equal spheres in a periodic cube (seeded at φ = 0.3, grown
 //! to φ = 0.6). It writes `OUT_DIR/packing.json` (the packing format of `densepack run`),
-//! `packing.csv` and `packing.vtu` (default `OUT_DIR`: `pack_verify_export/`). Exit 2 for a
+//! `packing.csv` and `packing.vtu` (default `OUT_DIR`: `densepack-example` in the system's
+//! temporary directory, so that a run leaves the checkout clean). Exit 2 for a
 //! scene that cannot be read or is invalid, 1 when the run fails or the packing does not pass
 //! the check (nothing is written then).
 
@@ -45,7 +46,10 @@ fn main() -> ExitCode {
         },
         None => DEFAULT_SCENE.to_string(),
     };
-    let out_dir = PathBuf::from(args.get(1).map_or("pack_verify_export", String::as_str));
+    let out_dir = args.get(1).map_or_else(
+        || std::env::temp_dir().join("densepack-example"),
+        PathBuf::from,
+    );
 
     // 1. Parse and validate: every field is checked before anything runs.
     let scene = match Scene::from_toml(&text) {
