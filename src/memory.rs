@@ -8,7 +8,7 @@
 
 /// Peak resident memory of a sphere run per particle: seeding, kernel, verification and
 /// the packing record. Measured 296 B at 10⁶ spheres (calendar queue,
-/// `densepack bench-child-memory 1000000 calendar`, BENCHMARKS.md "memory") and 306 B at
+/// `densepack bench-child-memory 1000000 calendar`, BENCHMARKS.md "Memory") and 306 B at
 /// 4·10⁴ (`/usr/bin/time -v`), rounded up.
 pub const SPHERE_BYTES: u64 = 320;
 

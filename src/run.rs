@@ -4,7 +4,7 @@
 //! monomorphised for them: a fully periodic box gets [`PeriodicBox`] (no wall code at all).
 //! Ellipsoid scenes go through [`ellipsoid`] with the same stage loop.
 //!
-//! The kernel runs relative to the container's origin ([`container_origin`]) and in the
+//! The kernel runs relative to the container's origin (`container_origin`) and in the
 //! scene's reduced lengths ([`Units`]: every length divided by `ℓ = 10^E`, exactly under
 //! decimal changes of unit); the packing is scaled and translated back when it is written. Sphere and ellipsoid runs can write checkpoints at
 //! time barriers and be resumed from them ([`run_scene_checkpointed`], [`resume_run`]).
@@ -743,6 +743,8 @@ where
 fn provenance(scene: &impl serde::Serialize, seed: u64, timings: Timings) -> Provenance {
     Provenance {
         densepack_version: env!("CARGO_PKG_VERSION").into(),
+        // Set by build.rs when built in a git checkout.
+        git_commit: option_env!("DENSEPACK_GIT_COMMIT").map(Into::into),
         seed,
         scene: serde_json::to_value(scene).expect("a scene serialises"),
         timings,

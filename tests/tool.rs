@@ -43,6 +43,16 @@ fn init_spheres_writes_a_scene_that_runs_with_json_progress_and_provenance() {
     let packing = densepack::io::packing::Packing::read(&out).unwrap();
     let p = packing.provenance.expect("provenance is recorded");
     assert_eq!(p.densepack_version, env!("CARGO_PKG_VERSION"));
+    // Built in a git checkout, the packing names the commit git reports for it; elsewhere
+    // (no git, no checkout) it names none.
+    let head = std::process::Command::new("git")
+        .args(["rev-parse", "HEAD"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map(|o| String::from_utf8(o.stdout).unwrap().trim().to_string());
+    assert_eq!(p.git_commit, head);
     assert_eq!(p.seed, 1);
     // The resolved scene: defaults the file leaves out are filled in.
     assert_eq!(p.scene["particles"]["count"], 1000);

@@ -8,7 +8,7 @@
 //! for whole runs the smallest gap that [`crate::verify`] finds in the written packing. The
 //! contact tolerance (scene key `particles.ellipsoid.contact_tolerance`, default 10⁻¹² of the
 //! smallest semi-axis) is swept in [`predictor`]: time per prediction and worst overlap on the
-//! pairs, and a whole jamming run per tolerance ([`tolerance_runs`]).
+//! pairs, and a whole jamming run per tolerance (`tolerance_runs`).
 
 use super::{median, spread, Figure, Series, StudyContext, StudyOutput, Table};
 use crate::io::scene::Scene;
@@ -220,7 +220,7 @@ pub fn predictor(ctx: &StudyContext) -> StudyOutput {
     }
 }
 
-/// Contact tolerances swept by [`tolerance_sweep`] (relative to the smallest semi-axis).
+/// Contact tolerances swept by `tolerance_sweep` (relative to the smallest semi-axis).
 pub const TOLERANCES: [f64; 4] = [1e-6, 1e-9, 1e-12, 1e-14];
 
 /// The contact tolerance against time and error: per tolerance, time per prediction and the

@@ -60,7 +60,7 @@ pub enum GenerationFailure {
 pub struct Generated {
     /// Wall seconds of the generation (not of the check).
     pub seconds: f64,
-    /// CPU seconds of the generating thread (an RSA run under [`SHORT_RUN`]: the mean of
+    /// CPU seconds of the generating thread (an RSA run under `SHORT_RUN`: the mean of
     /// repeated runs of its seed, see [`generate`]): on a shared machine the wall clock also counts
     /// the time the thread waited for a core, which the paper's dedicated machine did not.
     pub cpu_seconds: f64,

@@ -239,6 +239,10 @@ pub struct Packing {
 pub struct Provenance {
     /// Version of densepack that wrote the packing.
     pub densepack_version: String,
+    /// Git commit densepack was built from, when it was built in a git checkout (absent
+    /// otherwise, and in packings of versions before 0.2.0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub git_commit: Option<String>,
     /// Seed of the run.
     pub seed: u64,
     /// The scene with every default filled in (JSON form of the TOML schema).

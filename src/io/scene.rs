@@ -141,7 +141,7 @@ fn default_neighbour_skin() -> f64 {
 /// The container of a scene, written as a table with a `type` key (`type = "box"`).
 ///
 /// The derived serde impls use the externally tagged form (`{ box = { size = … } }`);
-/// [`deserialize_container`] and [`serialize_container`] turn the scene's `type` key into
+/// `deserialize_container` and `serialize_container` turn the scene's `type` key into
 /// that form and back, so that errors inside the table name their field
 /// (`container.size[1]: invalid type …`), which serde's internally tagged enums cannot do.
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
@@ -553,7 +553,7 @@ pub const RATE_RANGE: [f64; 2] = [1e-6, 1e6];
 /// Allowed `events_per_particle_per_interval`. A stage checks its goals and limits only at
 /// time barriers, and an interval ends early only after 16 times its planned events: at
 /// 10³⁰⁰ a jamming run never reached a barrier (measured: 11 M events for 100 spheres until
-/// its wall-clock limit stopped it). 1–16 were measured (BENCHMARKS.md, tuning); the range
+/// its wall-clock limit stopped it). 1–16 were measured (BENCHMARKS.md, "Defaults"); the range
 /// leaves two to three orders of magnitude either side.
 pub const EVENTS_PER_INTERVAL_RANGE: [f64; 2] = [1e-2, 1e3];
 

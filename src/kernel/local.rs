@@ -4,7 +4,8 @@ use crate::boundary::WallId;
 
 /// Events kept per particle. A particle's predictions beyond the earliest few are dropped and
 /// recomputed when the kept ones are used up (the list remembers that it was truncated).
-/// Measured: see BENCHMARKS.md.
+/// Fewer cost repredictions, more cost memory without saving time (BENCHMARKS.md,
+/// "Defaults").
 pub(super) const LOCAL_CAPACITY: usize = 3;
 
 /// What an event does.
@@ -138,8 +139,8 @@ fn earliest_of(events: &[LocalEvent; LOCAL_CAPACITY]) -> Option<(usize, LocalEve
 
 /// The local event lists of all particles, stored as two arrays: the events (48 bytes per
 /// particle) and the truncation flags (one byte). One array of [`LocalList`] would pad each
-/// entry to 56 bytes for its flag; at 10⁶ particles the split saves 7 MB, the difference
-/// between 301 and 294 bytes per particle of peak memory (BENCHMARKS.md, memory).
+/// entry to 56 bytes for its flag; at 10⁶ particles the split saves 7 MB, 7 bytes per
+/// particle of peak memory (the target is 300 B per particle).
 #[derive(Clone, Debug)]
 pub(super) struct LocalLists {
     events: Vec<[LocalEvent; LOCAL_CAPACITY]>,

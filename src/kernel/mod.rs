@@ -39,7 +39,7 @@
 //! Shapes that may grow longer than half the box ([`Collidable::PERIODIC_IMAGES`]) switch to
 //! image-aware lists at the barrier where the list spheres reach half the shortest periodic
 //! edge: entries then name a partner *and* its periodic image, including the particle's own
-//! images ([`images`]).
+//! images (`images`).
 //!
 //! Invalidation never scans the queue: a particle's own events go with its local list, and
 //! events of others that name it are recognised as stale by the counter.
@@ -51,8 +51,8 @@
 //! cell grid is rebuilt if the particles have outgrown it, the reduced pressure of the
 //! interval is measured, stop criteria are checked and all events are predicted afresh. The
 //! barrier interval adapts so that an interval holds about
-//! [`KernelConfig::events_per_particle_per_interval`] events per particle (measured: see
-//! `BENCHMARKS.md`).
+//! [`KernelConfig::events_per_particle_per_interval`] events per particle (the default and
+//! the measurements behind it: `BENCHMARKS.md`, "Defaults").
 //!
 //! # Pressure
 //! The reduced pressure `Z = PV/(NkT)` comes from the collision virial,
@@ -92,8 +92,7 @@ use rand_distr::StandardNormal;
 /// changes the velocity by `Δv` moves `pos` by `−Δv·t` (likewise the rotation). So a particle
 /// needs no update time of its own, and a sphere's record (centre, velocity, radius, growth
 /// rate) fills exactly one aligned 64-byte cache line instead of straddling two (72 bytes
-/// with an update time): a pair prediction loads one line per partner (measured:
-/// BENCHMARKS.md, "Session 10"). Kernel time restarts at 0 at every barrier, where the
+/// with an update time): a pair prediction loads one line per partner. Kernel time restarts at 0 at every barrier, where the
 /// stored point is the centre itself ([`Edmd::particles`] are read there), so `vel·t` spans
 /// at most one barrier interval, as the per-event extrapolation it replaces did.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
@@ -221,7 +220,7 @@ pub(crate) type NeighbourList = smallvec::SmallVec<[u32; NEIGHBOURS_INLINE]>;
 
 /// Largest neighbour-list skin the kernel adapts to. Thicker skins lengthen the lists (their
 /// memory grows with the cube of `1 + skin`) for little gain: in the φ = 0.5 fluid a fixed
-/// skin of 0.4 was as fast as any (BENCHMARKS.md, tuning).
+/// skin of 0.4 was as fast as any.
 pub const MAX_SKIN: f64 = 0.5;
 
 /// Neighbours screened per block of a prediction pass: one bit each in a `u64` marks those
@@ -529,7 +528,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// is multiplied by 1.2 when there were more than 0.15 updates per collision and divided
     /// by 1.2 below 0.05, within `[0.01, MAX_SKIN]`: a fluid settles at a thick skin, a packing
     /// near jamming (particles rattle in tiny cages) shrinks its lists to the touching
-    /// neighbours. Measured in BENCHMARKS.md.
+    /// neighbours (the band's measurements: BENCHMARKS.md, "Defaults").
     pub fn skin(&self) -> f64 {
         self.skin
     }
@@ -685,7 +684,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.image_free_zone = image_free_zone(b, &self.grid);
         // The keys are dropped before `new_index` exists and the cells are looked up again
         // after the permutation, so the renumbering's scratch peaks at 12 bytes per particle
-        // (memory target: ≤ 300 B per particle at N = 10⁶, BENCHMARKS.md).
+        // (the memory target is ≤ 300 B per particle at N = 10⁶).
         let keys: Vec<u64> = (0..n)
             .map(|i| self.grid.locality_key(self.home_cell(i)))
             .collect();
@@ -768,8 +767,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// overlap `i`'s (`|c_i − c_j|² < (r_i + r_j)²`), and their envelopes (shapes with
     /// [`Collidable::ENVELOPES`]), in the order of the cell walk. Each candidate is tested
     /// as the walk meets it (a list update walks some 20 cells for about 70 candidates and
-    /// 13 neighbours): no buffer of candidates and no second pass over it (BENCHMARKS.md,
-    /// session 16).
+    /// 13 neighbours): no buffer of candidates and no second pass over it.
     fn overlapping_lists(&self, i: usize, first: usize, out: &mut NeighbourList) {
         let sphere_i = &self.list_spheres[i];
         let wraps = !self.pairs_free_of_images(i);
@@ -861,7 +859,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             self.overlapping_lists(i, 0, &mut new);
             // Most partners stay: only the lists of those that leave or arrive are edited
             // (two scans of the short lists instead of a cache miss on every partner's
-            // list; measured: BENCHMARKS.md, design decisions).
+            // list).
             let listed = |list: &[u32], j: u32| list.iter().fold(false, |a, &x| a | (x == j));
             for &j in old.iter().filter(|&&j| !listed(&new, j)) {
                 let list = &mut self.neighbours[j as usize];
@@ -933,18 +931,17 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// 1. a screen ([`Collidable::may_collide`], for shapes with
     ///    [`Collidable::SCREENS_PAIRS`]) marks the neighbours that may meet `i` within the
     ///    horizon, without the square root and division of a contact time: in the φ = 0.5
-    ///    fluid 84 % of the neighbours recede, miss or meet after the barrier
-    ///    (BENCHMARKS.md, session 11). Two neighbours per step, one per lane of packed
-    ///    arithmetic ([`Lanes`]; BENCHMARKS.md, session 14); a bit per neighbour in a word
+    ///    fluid most neighbours recede, miss or meet after the barrier. Two neighbours per
+    ///    step, one per lane of packed arithmetic ([`Lanes`]); a bit per neighbour in a word
     ///    per block of [`SCREEN_BLOCK`], and what the screen hands on per step
     ///    ([`Collidable::Screened`]: for spheres the lanes' gap quadratics);
     /// 2. contact times for the marked ones only, from what the screen handed on
-    ///    ([`Collidable::screened_time`]; BENCHMARKS.md, session 17), or for shapes without
+    ///    ([`Collidable::screened_time`]), or for shapes without
     ///    a screen for every partner ([`Collidable::collision_time`]), `+∞` for none,
     ///    appended to a buffer whose end moves past an entry only if it is kept: for spheres
     ///    nothing in the passes branches on a pair's outcome but the loop over the marked
-    ///    ones, where acting on each prediction at once mispredicted about one branch per
-    ///    neighbour (BENCHMARKS.md, design decisions);
+    ///    ones, where acting on each prediction at once would mispredict about one branch
+    ///    per neighbour;
     /// 3. the few contacts found are sorted (earliest first, the first neighbour on ties) and
     ///    the earliest [`LOCAL_CAPACITY`] go into the list — the events that pushing every
     ///    prediction in neighbour order would keep, up to the order of times that round to
@@ -954,8 +951,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     #[inline]
     fn predict_pairs(&mut self, i: usize, partners: Partners) {
         // One pass for intervals with growth and one without, each compiled with its own
-        // screen (a pass that asked a flag in each step ran 0.9 % more instructions in the
-        // fluid; BENCHMARKS.md, session 17). Shapes without a screen need only one.
+        // screen (a flag asked in each step would cost more than the second copy of the
+        // code). Shapes without a screen need only one.
         if self.grows || !S::SCREENS_PAIRS {
             self.predict_pairs_as::<true>(i, partners);
         } else {
@@ -990,7 +987,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         // A barrier's pass (`Above`) leaves out half the neighbours: they are dropped before
         // the screen rather than screened for nothing. The one partner a collision's second
         // pass leaves out (`AllBut`) is dropped with the contact times instead: copying the
-        // list to drop one entry costs more (BENCHMARKS.md, session 15).
+        // list to drop one entry costs more than checking each time against it.
         let mut above = std::mem::take(&mut self.scratch);
         let mut found = std::mem::take(&mut self.pair_times);
         let mut screened = std::mem::take(&mut self.screened);
@@ -1027,15 +1024,15 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         };
         let mut count = 0;
         if S::SCREENS_PAIRS {
-            // Most passes are over lists inside the box, which need no minimum image (64 %
-            // at 10⁴ particles, 82 % at 10⁵; BENCHMARKS.md, session 16).
+            // Most passes are over lists inside the box, which need no minimum image (the
+            // more so the larger the box).
             let wraps = !self.pairs_free_of_images(i);
             // Screen: the neighbours that may meet `i` within the horizon, two per step in
-            // the two lanes of packed arithmetic (BENCHMARKS.md, session 14), a block of up
+            // the two lanes of packed arithmetic, a block of up
             // to 64 at a time: a bit per neighbour marks those that pass, and what the screen
             // hands on is kept per step. Then the times of those that pass, keeping the ones
             // that meet and are not left out. Nothing in either part branches on a pair's
-            // outcome but the loop over the marked ones (BENCHMARKS.md, session 17).
+            // outcome but the loop over the marked ones.
             for (block, in_block) in neighbours.chunks(SCREEN_BLOCK).enumerate() {
                 let mut passed = 0u64;
                 for (step, two) in in_block.chunks(2).enumerate() {
@@ -1125,7 +1122,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// Asks the memory system for the state of every partner of `i` before a prediction
     /// pass needs it. The partners are scattered through the particle array; without the
     /// hints their loads wait one after the other behind the loop's mispredicted branches
-    /// (measured: BENCHMARKS.md, design decisions, 15–20 % of the fluid's run time).
+    /// (at 10⁵ particles a large share of the fluid's run time).
     /// `i`'s own list sphere comes along: [`Self::predict_own`] reads it after the pass.
     /// Once per pass: a collision asks for both particles' partners before the first pass
     /// (the second particle's load while the first is predicted), the other callers through
@@ -1253,8 +1250,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 return true;
             }
             // Data of the next events loads while this one is processed (at 10⁵ particles
-            // these loads wait on main memory; measured: BENCHMARKS.md, design decisions and
-            // session 12), in a pipeline two events deep. The likeliest next particle, whose
+            // these loads would wait on main memory), in a pipeline two events deep. The likeliest next particle, whose
             // local and neighbour lists were requested one event ago: the states of its
             // partners, and its next partner's counter (the validity check), state,
             // neighbour list, local list (rewritten, then read back by the collision) and
@@ -1315,7 +1311,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// Resolves the collision of `i` with the neighbour-list entry `partner` (an index, or an
     /// index and an image shift when the kernel tracks images). `partners_requested`: `i`'s
     /// partners' states have been requested already ([`Self::prefetch_partners`]; asking
-    /// again costs some fifty instructions for nothing).
+    /// again would walk the neighbour list for nothing).
     fn collide(&mut self, i: usize, partner: u32, partners_requested: bool) {
         let j = self.partner_index(partner);
         let t = self.time;

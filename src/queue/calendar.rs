@@ -62,8 +62,8 @@ use std::cmp::Ordering;
 const FRONT_LIMIT: usize = 64;
 
 /// Mean entries per bucket the calendar is laid out for: a few entries keep the front heap
-/// tiny while a quarter as many bucket heads as keys keep memory low (measured in
-/// BENCHMARKS.md).
+/// tiny while a quarter as many bucket heads as keys keep memory low (BENCHMARKS.md,
+/// "Memory").
 const ENTRIES_PER_BUCKET: usize = 4;
 
 /// Upper bound on the number of buckets (and with it on the memory a `reset` can allocate).
@@ -90,7 +90,7 @@ enum Place {
 
 /// What the queue knows of one key, in one 24-byte record: a schedule, a cancel or a bucket
 /// hand-over touches a key's time, place and links together, and at 10⁵ keys each separate
-/// array cost a cache miss of its own (measured: BENCHMARKS.md, "Session 10").
+/// array would cost a cache miss of its own.
 #[derive(Clone, Copy, Debug)]
 struct KeyRecord {
     /// Time of the key's entry; meaningless when `place` is `Absent`.
@@ -153,7 +153,7 @@ pub struct CalendarQueue {
     /// the memory system for, steps to that key's successor and prefetches its record. The
     /// bucket's list chain is thus loaded one link per event while the current bucket drains,
     /// instead of as a chain of dependent cache misses when `settle` takes the bucket (at 10⁵
-    /// keys that chain took 11 % of the run; BENCHMARKS.md, session 12). Keys unlinked or
+    /// keys the lists no longer fit the caches). Keys unlinked or
     /// moved meanwhile keep valid (stale) links, so the cursor may wander into another list
     /// or end early; it never affects results.
     read_ahead: u32,
@@ -173,9 +173,9 @@ impl CalendarQueue {
         let x = (t - self.origin) * self.inv_width;
         if x >= 0.0 {
             if x < nb as f64 {
-                // `x < nb ≤ MAX_BUCKETS` fits a `u32`, whose conversion is a few instructions
-                // where the saturating one to `usize` (no unsigned conversion in SSE2) takes
-                // about twenty; both truncate to the same bucket (BENCHMARKS.md, session 14).
+                // `x < nb ≤ MAX_BUCKETS` fits a `u32`, whose conversion is one instruction,
+                // where the saturating one to `usize` needs a correction sequence (SSE2 has no
+                // unsigned conversion); both truncate to the same bucket.
                 x as u32 as usize
             } else {
                 nb
@@ -547,7 +547,7 @@ impl EventQueue for CalendarQueue {
     /// root, the earlier child is the earliest unless the kernel schedules an entry before it
     /// while it processes the root's event; the event after is the later child or one of the
     /// earlier child's children (the later child's children come three events on at the
-    /// soonest and were left out: measured, BENCHMARKS.md, session 12).
+    /// soonest, too late for a prefetch issued now to matter, and are left out).
     #[inline]
     fn upcoming(&self) -> [Option<usize>; UPCOMING] {
         let (a, b) = match (self.front.get(1), self.front.get(2)) {

@@ -62,7 +62,9 @@ use std::f64::consts::PI;
 
 /// Default gap below which two ellipsoids (or an ellipsoid and a wall) count as touching,
 /// relative to the smallest semi-axis involved (the scene key
-/// `particles.ellipsoid.contact_tolerance`; chosen from the sweep in BENCHMARKS.md).
+/// `particles.ellipsoid.contact_tolerance`). Near contact the certified steps converge like
+/// Newton steps, so looser tolerances save little time; below about 1e-12 the steps chase
+/// rounding. The sweep is in BENCHMARKS.md, "Defaults and the measurements behind them".
 pub const CONTACT_TOLERANCE: f64 = 1e-12;
 
 /// Largest contact tolerance a scene may set: a contact is resolved while its gap is below
@@ -1068,7 +1070,7 @@ impl Collidable for Ellipsoid {
 
     /// `√(a_max·a_min)`: the lists of needles grow with the thickness of the envelope and
     /// their updates with the rotation of the tips (`∝ a_max`), so the best skin width
-    /// scales like the geometric mean of the two (BENCHMARKS.md, "neighbour envelopes").
+    /// scales like the geometric mean of the two.
     #[inline]
     fn skin_length(&self, t: f64) -> f64 {
         self.scale_at(t) * self.axes.min().sqrt()

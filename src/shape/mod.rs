@@ -230,7 +230,7 @@ pub trait Collidable: Clone + Send + Sync + 'static {
     /// `dv = v_a − v_b` at time `t`, with rotational states `sa`, `sb` at time `t`; `+∞` if
     /// they do not touch within the window. A time rather than an `Option`: the kernel's
     /// prediction pass keeps the finite ones without a branch per pair, and a shape whose
-    /// predictor can run without branches (spheres: [`sphere::sphere_contact_time`]) keeps
+    /// predictor can run without branches (spheres: `sphere::sphere_contact_time`) keeps
     /// the whole pass free of them.
     #[allow(clippy::too_many_arguments)]
     fn collision_time(

@@ -56,8 +56,8 @@ pub fn sphere_contact_time(sigma: f64, growth: f64, dr: &Vec3, dv: &Vec3, max_ta
 /// Eq. 22), of one pair (`T = f64`) or of two, one per lane (`T = Lanes`). One formula
 /// ([`GapQuadratic::of`]) for the contact time and the two-lane screen
 /// (`sphere_contact_possible`), which hands its lanes on to the contact times of those that
-/// pass ([`Collidable::screened_time`]): they need no second look at the pair
-/// (BENCHMARKS.md, session 17).
+/// pass ([`Collidable::screened_time`]): they need no second look at the pair (index, state,
+/// minimum image), and the handed-on time is the same number the scalar path computes.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct GapQuadratic<T = f64> {
     /// `dv² − G²` (length²/time²).
@@ -116,7 +116,7 @@ impl GapQuadratic {
     /// approaching pairs meet, by the first form). The form is picked by the sign of `b`, so
     /// one division serves both, and the time is kept or replaced by `+∞` by a select, not a
     /// jump (`pick`): whether a neighbour approaches is a coin flip, and a mispredicted
-    /// jump per neighbour cost more than the arithmetic (BENCHMARKS.md, design decisions).
+    /// jump per neighbour costs more than the arithmetic it saves.
     #[inline]
     pub fn contact_time(&self, max_tau: f64) -> f64 {
         let Self { a, b, c } = *self;
@@ -139,15 +139,14 @@ impl GapQuadratic {
 /// `k` in lane `k`, its answer in element `k`): a screen with the conditions of
 /// [`sphere_contact_time`] but without its square root and division, the slow part of a
 /// prediction (the divider is not pipelined), which 86 % of the neighbours in the φ = 0.5
-/// fluid do not need: they recede, miss or meet after the barrier (BENCHMARKS.md, session
-/// 11). It never rejects a pair that [`sphere_contact_time`] gives a time, so the kernel's
+/// fluid do not need: they recede, miss or meet after the barrier. It never rejects a pair that [`sphere_contact_time`] gives a time, so the kernel's
 /// predictions are those without it. Two lanes because the kernel's pass screens two
-/// neighbours per step (BENCHMARKS.md, session 14). The lanes' quadratics come along: the
+/// neighbours per step. The lanes' quadratics come along: the
 /// time of a pair that passes is its lane's [`GapQuadratic::contact_time`].
 ///
 /// `growth` holds the sums of the pairs' growth rates, `None` when no particle grows (the
-/// kernel knows it for each barrier interval, and leaves the rates unread: BENCHMARKS.md,
-/// session 17). With the gap function `f(τ) = a τ² + 2 b τ + c` (apart: `c > 0`) and the
+/// kernel knows it for each barrier interval, and then the rates are not read and no growth
+/// term is computed). With the gap function `f(τ) = a τ² + 2 b τ + c` (apart: `c > 0`) and the
 /// horizon `T`:
 /// - without growth (`a ≥ 0`), `f(τ) ≥ c + 2 b τ ≥ c + 2 b T` on `[0, T]` for an
 ///   approaching pair (`b < 0`), so a contact within the horizon needs `c + 2 b T ≤ 0`
@@ -196,8 +195,8 @@ pub fn sphere_contact_possible(
 }
 
 /// `if condition { x } else { y }`, marked unpredictable so that the compiler emits a select
-/// rather than a jump (a plain `if` or a bit mask on `f64` compiles to a jump here; measured:
-/// BENCHMARKS.md, design decisions).
+/// rather than a jump (a plain `if` or a bit mask on `f64` compiles to a jump on x86-64, and
+/// the condition is data-dependent, so the jump would be mispredicted half the time).
 #[inline(always)]
 fn pick(condition: bool, x: f64, y: f64) -> f64 {
     core::hint::select_unpredictable(condition, x, y)

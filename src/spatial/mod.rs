@@ -285,10 +285,9 @@ impl CellGrid {
     /// the axis (0 for a whole axis, where no distance is known). Taking the exact overlap
     /// rather than ±⌈reach/width⌉ cells around `x`'s cell scans about (2·reach/width + 1)
     /// cells per axis instead of (2·⌈reach/width⌉ + 1): 8 instead of 27 cells for a reach
-    /// just over half a cell (measured: BENCHMARKS.md, concrete). The distances let a query
-    /// skip the corners of its block, which lie beyond `reach` (a quarter of the cells of a
-    /// neighbour-list update; measured: BENCHMARKS.md, design decisions); computed once per
-    /// axis rather than once per cell (BENCHMARKS.md, session 16). On a bounded axis the end
+    /// just over half a cell. The distances let a query skip the corners of its block, which
+    /// lie beyond `reach` (about a quarter of the cells of a neighbour-list update); they are
+    /// computed once per axis rather than once per cell. On a bounded axis the end
     /// cells also hold the points beyond the grid ([`Self::coords_at`] clamps), so they reach
     /// out to infinity.
     #[inline]
@@ -342,8 +341,8 @@ fn wrap_cell(c: i64, n: i64) -> u32 {
 }
 
 /// `⌊x⌋` as an integer (saturating; NaN gives 0). Written out because `f64::floor` is a libm
-/// call on the baseline x86-64 target (no SSE4.1 `roundsd`), 3 % of a polydisperse run's
-/// time in the neighbour search (perf, BENCHMARKS.md).
+/// call on the baseline x86-64 target (no SSE4.1 `roundsd`), and the neighbour search
+/// calls it for every coordinate of every query.
 #[inline]
 pub(crate) fn floor_to_i64(x: f64) -> i64 {
     let truncated = x as i64;

@@ -41,10 +41,10 @@
 //!   jammed, and the last free pockets found, in a few thousand candidates instead of
 //!   10⁵–10⁶ (10 + 10 spheres of radius 0.19: 147 000 → 2900 candidates per packing).
 //!
-//! Profile before these (callgrind/perf, 50 + 50 cylinders-first, a = 5): the typed base
-//! tests (disk–side, disk–disk) of pairs whose capsules overlap took about half the time,
-//! the image enumeration over every body in reach a third; saturated cells are dominated
-//! by the number of candidates of the last cylinders.
+//! What these address: without them the typed base tests (disk–side, disk–disk) of pairs
+//! whose capsules overlap and the image enumeration over every body in reach take most of
+//! a candidate's time; saturated cells are dominated by the number of candidates of the last
+//! cylinders.
 
 use super::{random_direction, self_image_offsets, BodySize, MixtureError, Rve};
 use crate::boundary::PeriodicBox;
@@ -1008,12 +1008,10 @@ const MAX_REFINEMENTS: u32 = 6;
 /// excluded region is dead) but a build visits `∝ 1/w²` rows per body. Coarse in the
 /// first start when every body is short (`4 R_max ≤ L_min`, so each one reaches a voxel
 /// in one image and a refinement is cheap): there the map serves a body or two of a start
-/// that completes, and the cheaper build pays (callgrind, `/ 3` → `/ 2`: 10 + 10, a = 3,
-/// f_s 0.2, f_c 0.05 −23 %; 20 + 20 −16 %; 10 + 10 f_s 0.15 f_c 0.1 −9 %; 30 + 30
-/// f_s 0.2 f_c 0.05 −1 %; 50 + 50 f_s 0.15 f_c 0.1 +4 %). Not with long bodies (10 + 10,
-/// a = 5, f_s 0.05, f_c 0.25: +69 %: the coarse map is refined, and a refinement tests
-/// every image of every long body per live voxel), nor once a start has got stuck
-/// (saturated cells, where maps must prove starts jammed).
+/// that completes, and the cheaper build pays most in the small sphere-heavy cells. Not
+/// with long bodies (the coarse map is refined, and a refinement tests every image of
+/// every long body per live voxel), nor once a start has got stuck (saturated cells, where
+/// maps must prove starts jammed).
 fn voxel_width(inscribed: f64, coarse: bool) -> f64 {
     inscribed / if coarse { 2.0 } else { 3.0 }
 }
@@ -1027,9 +1025,10 @@ const EXCLUSION_MAP_AFTER: u64 = 2000;
 const VOXELS_PER_CANDIDATE: u64 = 64;
 
 /// Voxel visits of the bodies' kills in building an [`ExclusionMap`] counted as one
-/// candidate by [`ExclusionMap::build_after`]. Callgrind (10 + 10, a = 3, f_s 0.2, f_c
-/// 0.05): ~60 instructions per visit against ~1400 per candidate, i.e. 25; 50 (the map
-/// built after about half its cost in rejections) was faster over seven cells, 100 slower.
+/// candidate by [`ExclusionMap::build_after`]. A visit costs about a twenty-fifth of a
+/// candidate; counting fifty builds the map once the rejections have cost about half of
+/// the build, which wastes at most a constant factor either way (as in renting skis before
+/// buying them) and was the fastest of 25, 50 and 100 over seven cells.
 const VISITS_PER_CANDIDATE: f64 = 50.0;
 
 /// Consecutive rejections of one body after which the [`ImageScan`] gives way to a
@@ -1047,8 +1046,8 @@ const FINE_GRID_AFTER: u64 = 256;
 /// the axis lengthened by the probe's, of volume `v_j`: with probability
 /// `min(1, v_j / V)` for a uniform centre. Either way the same images are tested exactly
 /// (each structure lists every image that can meet the probe), so the choice changes the
-/// cost of a candidate, never its verdict. Callgrind, 10 + 10, a = 3, f_s 0.2, f_c 0.05
-/// (cells 0.2 wide, every body met): 8 % fewer instructions without the grid.
+/// cost of a candidate, never its verdict. In small cells where a query meets every body
+/// the grid only adds its registration.
 fn grid_prunes(
     boundary: &PeriodicBox,
     pad: f64,
