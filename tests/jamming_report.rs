@@ -3,6 +3,8 @@
 //! crystal is collectively jammed in a periodic box, the simple cubic lattice is not, since
 //! its planes slide over each other).
 
+mod common;
+
 use densepack::analysis::jamming::{jamming_report, JammingError, Q6_FCC};
 use densepack::io::packing::{ContainerRecord, Packing, ParticleRecord};
 
@@ -338,4 +340,50 @@ fn general_ellipsoids_have_six_freedoms_and_spheres_beside_them_three() {
     assert_eq!(r.ellipsoids, 1);
     assert_eq!(r.freedoms_per_particle, 4.5);
     assert!(!r.lp_skipped, "not asked for");
+}
+
+#[test]
+fn analyse_reports_spheroids_and_flags_a_cut_off_below_the_plateau() {
+    let dir = common::temp_dir("analyse_spheroids");
+    let path = dir.join("stretched.json");
+    // Every contact at gap 1e-8: the default cut-off 1e-9 sees none, 1e-7 all twelve.
+    stretched_fcc(1.5, 1e-8).write(&path).unwrap();
+    let out = common::densepack(&["analyse", path.to_str().unwrap()]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    for expected in [
+        "ellipsoids 256 (5 degrees of freedom each)",
+        "isostatic: 10 for a periodic packing",
+        "note: the cut-off is below the plateau (12.0000 contacts per particle at 1e-7)",
+        "LP test: skipped",
+    ] {
+        assert!(text.contains(expected), "{expected:?} missing from\n{text}");
+    }
+    // On the plateau: no note.
+    let out = common::densepack(&["analyse", "--cutoff", "1e-6", path.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("backbone Z 12.0000"), "{text}");
+    assert!(!text.contains("note:"), "{text}");
+}
+
+#[test]
+fn analyse_refuses_cylinders_with_exit_code_2() {
+    let dir = common::temp_dir("analyse_cylinder");
+    let path = dir.join("cylinder.json");
+    let cylinder = ParticleRecord::Cylinder {
+        center: [3.0; 3],
+        radius: 0.2,
+        half_axis: [0.0, 0.0, 0.5],
+    };
+    Packing::new(periodic_box(6.0), vec![cylinder])
+        .write(&path)
+        .unwrap();
+    let out = common::densepack(&["analyse", path.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("particle 0 is a cylinder"), "{err}");
 }
