@@ -1146,6 +1146,17 @@ fn oriented_of(p: &ParticleRecord) -> Option<Oriented> {
     })
 }
 
+/// `M` of a sphere (`r²·I`) or ellipsoid record as this check computes it, for other
+/// analyses of the written packing that need the Perram–Wertheim scale ([`contact_scale`]);
+/// `None` for a cylinder.
+pub(crate) fn shape_matrix(p: &ParticleRecord) -> Option<[[f64; 3]; 3]> {
+    match p {
+        ParticleRecord::Sphere { radius, .. } => Some(shape_matrix_of(None, *radius)),
+        ParticleRecord::Ellipsoid { .. } => oriented_of(p).map(|o| o.m),
+        ParticleRecord::Cylinder { .. } => None,
+    }
+}
+
 /// `M` of a particle: its ellipsoid's, or `r²·I` for a sphere of radius `r`.
 fn shape_matrix_of(o: Option<&Oriented>, r: f64) -> [[f64; 3]; 3] {
     match o {

@@ -3,7 +3,9 @@
 //! crystal is collectively jammed in a periodic box, the simple cubic lattice is not, since
 //! its planes slide over each other).
 
-use densepack::analysis::jamming::{jamming_report, Q6_FCC};
+mod common;
+
+use densepack::analysis::jamming::{jamming_report, JammingError, Q6_FCC};
 use densepack::io::packing::{ContainerRecord, Packing, ParticleRecord};
 
 fn periodic_box(edge: f64) -> ContainerRecord {
@@ -122,16 +124,266 @@ fn a_loose_sphere_is_a_rattler_and_the_plateau_sees_each_gap() {
 }
 
 #[test]
-fn bad_cut_offs_and_ellipsoids_are_refused() {
+fn bad_cut_offs_cylinders_and_ellipsoid_gap_claims_are_refused() {
     let packing = Packing::new(periodic_box(6.0), lattice(2, 1.0, &[[0.0; 3]], 0.5));
     for bad in [0.0, -1e-9, 0.5, f64::NAN] {
         assert!(jamming_report(&packing, bad, false, 1, 1.0).is_err());
     }
+    let cylinder = ParticleRecord::Cylinder {
+        center: [1.0; 3],
+        radius: 0.2,
+        half_axis: [0.0, 0.0, 0.5],
+    };
+    let packing = Packing::new(periodic_box(6.0), vec![cylinder]);
+    let e = jamming_report(&packing, 1e-9, false, 1, 1.0).unwrap_err();
+    assert_eq!(e, JammingError::Cylinder(0));
+    // A claimed gap would make the grown grains parallel bodies, not ellipsoids.
+    let mut packing = Packing::new(periodic_box(6.0), vec![spheroid([1.0; 3], 1.5, 0.0)]);
+    packing.min_gap = 0.01;
+    let e = jamming_report(&packing, 1e-9, false, 1, 1.0).unwrap_err();
+    assert!(e.to_string().contains("min_gap = 0.01"), "{e}");
+    let cylinder_container = ContainerRecord::Cylinder {
+        base_center: [0.0; 3],
+        radius: 3.0,
+        height: 6.0,
+    };
+    let packing = Packing::new(
+        cylinder_container,
+        vec![spheroid([0.0, 0.0, 3.0], 1.5, 0.0)],
+    );
+    let e = jamming_report(&packing, 1e-9, false, 1, 1.0).unwrap_err();
+    assert!(e.to_string().contains("box"), "{e}");
+}
+
+/// A prolate spheroid of semi-axes `(0.5·alpha, 0.5, 0.5)` at `center`, its long (body z)
+/// axis turned from world z towards world x by `degrees` about y.
+fn spheroid(center: [f64; 3], alpha: f64, degrees: f64) -> ParticleRecord {
+    let half = 0.5 * degrees.to_radians();
+    ParticleRecord::Ellipsoid {
+        center,
+        semi_axes: [0.5, 0.5, 0.5 * alpha],
+        orientation: [half.cos(), 0.0, half.sin(), 0.0],
+    }
+}
+
+/// The FCC lattice of unit spheres with lattice spacing scaled by `1 + gap`, stretched by
+/// `alpha` along x, as spheroids whose long axis is world x (body z turned by 90°). The
+/// affine map `x ↦ diag(alpha, 1, 1)·x` takes the touching spheres to touching spheroids,
+/// and the Perram–Wertheim scale factor is affine invariant: every pair of nearest
+/// neighbours touches when scaled by exactly `1 + gap`.
+fn stretched_fcc(alpha: f64, gap: f64) -> Packing {
+    let a = 2.0_f64.sqrt() * (1.0 + gap);
+    let particles = lattice(4, a, &FCC, 0.5)
+        .into_iter()
+        .map(|p| match p {
+            ParticleRecord::Sphere { center, .. } => {
+                spheroid([alpha * center[0], center[1], center[2]], alpha, 90.0)
+            }
+            other => other,
+        })
+        .collect();
+    let container = ContainerRecord::Box {
+        min: [0.0; 3],
+        max: [alpha * 4.0 * a, 4.0 * a, 4.0 * a],
+        periodic: [true; 3],
+    };
+    Packing::new(container, particles)
+}
+
+#[test]
+fn a_stretched_fcc_crystal_of_spheroids_keeps_its_twelve_contacts() {
+    for alpha in [1.5, 2.0] {
+        let r = jamming_report(&stretched_fcc(alpha, 0.0), 1e-9, true, 7, 60.0).unwrap();
+        assert_eq!((r.particles, r.ellipsoids), (256, 256));
+        assert_eq!(r.freedoms_per_particle, 5.0);
+        assert_eq!(r.isostatic_contacts, 10.0);
+        // Skipped, not run: the LP test is for spheres.
+        assert!(r.lp.is_none() && r.lp_skipped);
+        // 12 contacts at every cut-off down to rounding; second neighbours (scale √2 in
+        // the sphere lattice, so at least √2 here) at none.
+        for row in r.plateau.iter().filter(|row| row.cutoff >= 1e-12) {
+            assert_eq!(row.mean_contacts, 12.0, "alpha {alpha}: {row:?}");
+            assert_eq!(row.rattler_fraction, 0.0);
+            assert_eq!(row.backbone_mean_contacts, Some(12.0));
+            // 6N contacts for 5N − 3 freedoms.
+            let expected = 6.0 * 256.0 / (5.0 * 256.0 - 3.0);
+            assert!((row.constraints_per_freedom.unwrap() - expected).abs() < 1e-12);
+        }
+    }
+}
+
+#[test]
+fn the_report_counts_spheroid_contacts_against_the_cut_off() {
+    // Every nearest-neighbour pair at scale factor 1 + 1e-7 exactly (affine invariance).
+    let r = jamming_report(&stretched_fcc(1.5, 1e-7), 1e-6, false, 1, 1.0).unwrap();
+    let at = |h: f64| r.plateau.iter().find(|row| row.cutoff == h).unwrap();
+    for h in [1e-10, 1e-8] {
+        assert_eq!(at(h).mean_contacts, 0.0, "cut-off {h}");
+        assert_eq!(at(h).rattler_fraction, 1.0);
+        assert_eq!(at(h).backbone_mean_contacts, None);
+    }
+    for h in [1e-6, 1e-4] {
+        assert_eq!(at(h).mean_contacts, 12.0, "cut-off {h}");
+        assert_eq!(at(h).rattler_fraction, 0.0);
+    }
+    assert_eq!(r.at_cutoff.mean_contacts, 12.0);
+}
+
+/// The report's pair gap of `a` and `b` in a large periodic box: the smallest cut-off at
+/// which the pair counts as a contact, found by bisection (geometric) on the cut-off.
+fn pair_gap(a: ParticleRecord, b: ParticleRecord) -> f64 {
+    let packing = Packing::new(periodic_box(20.0), vec![a, b]);
+    let touches = |h: f64| {
+        jamming_report(&packing, h, false, 1, 1.0)
+            .unwrap()
+            .at_cutoff
+            .mean_contacts
+            > 0.0
+    };
+    let (mut lo, mut hi) = (1e-16, 0.1);
+    assert!(touches(hi) && !touches(lo));
+    for _ in 0..200 {
+        let mid = (lo * hi).sqrt();
+        if touches(mid) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    hi
+}
+
+#[test]
+fn pair_gaps_are_the_perram_wertheim_scale_factor_minus_one() {
+    let g = 3e-3;
+    // Tip to tip along the common long axis x: touching at distance 2·0.5·α.
+    let alpha = 2.0;
+    let found = pair_gap(
+        spheroid([5.0, 5.0, 5.0], alpha, 90.0),
+        spheroid([5.0 + alpha * (1.0 + g), 5.0, 5.0], alpha, 90.0),
+    );
+    assert!((found / g - 1.0).abs() < 1e-9, "{found}");
+    // Tip of one (long axis x) against the side of the other (long axis z): both normals
+    // are along x at the touching point, which lies 0.5·α + 0.5 from the first centre.
+    let found = pair_gap(
+        spheroid([5.0, 5.0, 5.0], alpha, 90.0),
+        spheroid(
+            [5.0 + (0.5 * alpha + 0.5) * (1.0 + g), 5.0, 5.0],
+            alpha,
+            0.0,
+        ),
+    );
+    assert!((found / g - 1.0).abs() < 1e-9, "{found}");
+    // A sphere of radius 0.5 beside a spheroid's side, across the periodic face.
+    let found = pair_gap(
+        ParticleRecord::Sphere {
+            center: [19.9, 5.0, 5.0],
+            radius: 0.5,
+        },
+        spheroid([-0.1 + 1.0 * (1.0 + g), 5.0, 5.0], alpha, 0.0),
+    );
+    assert!((found / g - 1.0).abs() < 1e-9, "{found}");
+}
+
+#[test]
+fn a_tilted_spheroid_touches_the_floor_at_its_half_width() {
+    // Long semi-axis 0.75 at 30° from z: half-width along z √(0.75²·cos² + 0.5²·sin²).
+    let (alpha, degrees, g) = (1.5_f64, 30.0_f64, 1e-5);
+    let t = degrees.to_radians();
+    let w = ((0.75 * t.cos()).powi(2) + (0.5 * t.sin()).powi(2)).sqrt();
+    let container = ContainerRecord::Box {
+        min: [0.0; 3],
+        max: [4.0, 4.0, 4.0],
+        periodic: [true, true, false],
+    };
+    let packing = Packing::new(
+        container,
+        vec![spheroid([2.0, 2.0, w * (1.0 + g)], alpha, degrees)],
+    );
+    let r = jamming_report(&packing, 1e-9, false, 1, 1.0).unwrap();
+    let at = |h: f64| r.plateau.iter().find(|row| row.cutoff == h).unwrap();
+    assert_eq!(at(1e-6).mean_contacts, 0.0);
+    assert_eq!(at(1e-4).mean_contacts, 1.0);
+    // Two periodic axes: two rigid translations.
+    assert_eq!(r.trivial_motions, 2);
+}
+
+#[test]
+fn general_ellipsoids_have_six_freedoms_and_spheres_beside_them_three() {
     let ellipsoid = ParticleRecord::Ellipsoid {
         center: [1.0; 3],
         semi_axes: [0.5, 0.4, 0.3],
         orientation: [1.0, 0.0, 0.0, 0.0],
     };
-    let packing = Packing::new(periodic_box(6.0), vec![ellipsoid]);
-    assert!(jamming_report(&packing, 1e-9, false, 1, 1.0).is_err());
+    let sphere = ParticleRecord::Sphere {
+        center: [4.0; 3],
+        radius: 0.5,
+    };
+    let r = jamming_report(
+        &Packing::new(periodic_box(6.0), vec![ellipsoid.clone()]),
+        1e-9,
+        true,
+        1,
+        1.0,
+    )
+    .unwrap();
+    assert_eq!((r.freedoms_per_particle, r.isostatic_contacts), (6.0, 12.0));
+    assert!(r.lp_skipped);
+    let r = jamming_report(
+        &Packing::new(periodic_box(6.0), vec![ellipsoid, sphere]),
+        1e-9,
+        false,
+        1,
+        1.0,
+    )
+    .unwrap();
+    assert_eq!(r.ellipsoids, 1);
+    assert_eq!(r.freedoms_per_particle, 4.5);
+    assert!(!r.lp_skipped, "not asked for");
+}
+
+#[test]
+fn analyse_reports_spheroids_and_flags_a_cut_off_below_the_plateau() {
+    let dir = common::temp_dir("analyse_spheroids");
+    let path = dir.join("stretched.json");
+    // Every contact at gap 1e-8: the default cut-off 1e-9 sees none, 1e-7 all twelve.
+    stretched_fcc(1.5, 1e-8).write(&path).unwrap();
+    let out = common::densepack(&["analyse", path.to_str().unwrap()]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    for expected in [
+        "ellipsoids 256 (5 degrees of freedom each)",
+        "isostatic: 10 for a periodic packing",
+        "note: the cut-off is below the plateau (12.0000 contacts per particle at 1e-7)",
+        "LP test: skipped",
+    ] {
+        assert!(text.contains(expected), "{expected:?} missing from\n{text}");
+    }
+    // On the plateau: no note.
+    let out = common::densepack(&["analyse", "--cutoff", "1e-6", path.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("backbone Z 12.0000"), "{text}");
+    assert!(!text.contains("note:"), "{text}");
+}
+
+#[test]
+fn analyse_refuses_cylinders_with_exit_code_2() {
+    let dir = common::temp_dir("analyse_cylinder");
+    let path = dir.join("cylinder.json");
+    let cylinder = ParticleRecord::Cylinder {
+        center: [3.0; 3],
+        radius: 0.2,
+        half_axis: [0.0, 0.0, 0.5],
+    };
+    Packing::new(periodic_box(6.0), vec![cylinder])
+        .write(&path)
+        .unwrap();
+    let out = common::densepack(&["analyse", path.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("particle 0 is a cylinder"), "{err}");
 }

@@ -1,6 +1,6 @@
-//! Is a sphere packing jammed? Contacts, rattlers, the backbone's contact number, the
-//! bond-orientational order and a linear-programming certificate, all computed from the
-//! written packing alone (no kernel counters, no prediction code).
+//! Is a sphere or ellipsoid packing jammed? Contacts, rattlers, the backbone's contact
+//! number, the bond-orientational order and (spheres) a linear-programming certificate, all
+//! computed from the written packing alone (no kernel counters, no prediction code).
 //!
 //! - **Contacts.** A pair is in contact when its relative surface gap
 //!   `|c_i − c_j| / (r_i + r_j) − 1` is below the cut-off `h`; a sphere touches a wall when
@@ -36,9 +36,36 @@
 //!   a random load meets with probability 1). Jammed means both optima are zero. The LPs are
 //!   solved by the Clarabel interior-point solver; an optimum counts as zero below
 //!   [`LP_ZERO`] times its scale.
+//!
+//! **Ellipsoids** (and spheres beside them) get the same report with these changes:
+//!
+//! - A pair's gap is `s − 1`, `s = √max_λ F(λ)` the Perram–Wertheim scale factor by which
+//!   both must be scaled about their centres to touch, computed by the independent check's
+//!   [`contact_scale`] (for two spheres `s = |c_i − c_j| / (r_i + r_j)`: the sphere gap).
+//!   Candidates are the pairs whose bounding spheres (radius: the largest semi-axis) are
+//!   within the widest cut-off: scaled by `s`, the bodies stay inside their scaled bounding
+//!   spheres, so `s − 1` is at least the bounding spheres' relative gap. A wall gap is
+//!   `(distance to the wall − w)/w`, `w = √(nᵀMn)` the half-width along the wall normal `n`
+//!   (`M = R·diag(a², b², c²)·Rᵀ`): the same scale factor against the plane. Ellipsoids come
+//!   in boxes without gap claims (the scenes allow nothing else); other files are refused.
+//! - The rattler rule stays *fewer than `d + 1 = 4` contacts*: a frictionless particle whose
+//!   contacts all push on it needs four for force balance whatever its shape. The stricter
+//!   first-order count `d_f + 1` (force and torque) is not used: Donev, Connelly, Stillinger &
+//!   Torquato (PRE 75, 051304, 2007) show that curved particles are jammed with fewer
+//!   contacts through second-order (curvature) terms, so it would discard jammed particles.
+//! - Degrees of freedom: `d_f = 3` for a sphere, 5 for a spheroid (two equal semi-axes: the
+//!   spin about its axis moves nothing), 6 for a general ellipsoid. The isostatic contact
+//!   number is `Z_iso = 2·d_f` (10 for spheroids, 12 for general ellipsoids), the counting
+//!   `(pairs + walls)/(Σ d_f − t)` over the backbone. Jammed ellipsoid packings are
+//!   *hypostatic*, `Z < Z_iso` (Donev et al., Science 303, 990, 2004; PRE 2007): near the
+//!   sphere point `Z` rises from 6 with the aspect ratio and stays below 2·d_f.
+//! - The LP test is first-order and for spheres only (its constraints ignore rotations and
+//!   curvature, which decide jamming of hypostatic ellipsoid packings): it is skipped.
+//! - Q6 uses the centre–centre bonds shorter than 1.2 times the sum of the bounding radii.
 
-use crate::io::export::{container_bounds, periodic_axes};
+use crate::io::export::{bounding_sphere, container_bounds, periodic_axes};
 use crate::io::packing::{ContainerRecord, Packing, ParticleRecord};
+use crate::verify::{contact_scale, shape_matrix};
 use rand::{Rng, SeedableRng};
 
 /// The cut-offs of the plateau table: `10⁻¹⁴ … 10⁻⁴`.
@@ -59,7 +86,25 @@ const BOND_REACH: f64 = 1.2;
 /// Q6 of a perfect face-centred cubic crystal (12 nearest neighbours).
 pub const Q6_FCC: f64 = 0.574_52;
 
-/// One contact: a pair of spheres, or a sphere and a wall.
+/// Rattlers have fewer contacts than this (see the module docs).
+const RATTLER_BELOW: u32 = 4;
+
+/// Semi-axes this close (relative) make a spheroid: five degrees of freedom.
+const SPHEROID_TOLERANCE: f64 = 1e-9;
+
+/// A particle as the report sees it.
+#[derive(Clone, Copy, Debug)]
+struct Body {
+    center: [f64; 3],
+    /// A sphere's radius (inflated by half the claimed gap), an ellipsoid's bounding radius.
+    radius: f64,
+    /// `M = R·diag(a², b², c²)·Rᵀ` of an ellipsoid, `None` for a sphere.
+    shape: Option<[[f64; 3]; 3]>,
+    /// Degrees of freedom: 3, 5 or 6.
+    freedoms: u8,
+}
+
+/// One contact: a pair of particles, or a particle and a wall.
 #[derive(Clone, Copy, Debug)]
 struct Contact {
     i: u32,
@@ -82,8 +127,9 @@ pub struct CutoffRow {
     pub rattler_fraction: f64,
     /// Mean contact number of the backbone (`(2·pairs + walls)/n`), `None` if it is empty.
     pub backbone_mean_contacts: Option<f64>,
-    /// Contacts of the backbone per non-trivial degree of freedom, `(pairs + walls)/(3n − t)`:
-    /// 1 (plus `1/(3n − t)`) for an isostatic network, below 1 for a floppy one.
+    /// Contacts of the backbone per non-trivial degree of freedom, `(pairs + walls)/(F − t)`
+    /// with `F = Σ d_f` over the backbone (`3n` for spheres): 1 (plus `1/(F − t)`) for an
+    /// isostatic network, below 1 for a floppy or hypostatic one.
     pub constraints_per_freedom: Option<f64>,
 }
 
@@ -105,8 +151,14 @@ pub struct LpCertificate {
 /// Everything the report says about a packing.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct JammingReport {
-    /// Number of spheres.
+    /// Number of particles.
     pub particles: usize,
+    /// How many of them are ellipsoids (the rest are spheres).
+    pub ellipsoids: usize,
+    /// Mean degrees of freedom per particle (3 spheres, 5 spheroids, 6 ellipsoids).
+    pub freedoms_per_particle: f64,
+    /// The isostatic mean contact number `2·d_f` (6 spheres, 10 spheroids, 12 ellipsoids).
+    pub isostatic_contacts: f64,
     /// The cut-off of the verdict.
     pub cutoff: f64,
     /// Contacts, rattlers and backbone at [`JammingReport::cutoff`].
@@ -121,24 +173,30 @@ pub struct JammingReport {
     pub q6_random: f64,
     /// Number of bonds behind Q6.
     pub bonds: usize,
-    /// The LP test on the backbone, when asked for.
+    /// The LP test on the backbone, when asked for and the particles are spheres.
     pub lp: Option<LpCertificate>,
+    /// Asked for but skipped: the packing has ellipsoids (see the module docs).
+    pub lp_skipped: bool,
 }
 
 /// Why a packing has no jamming report.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum JammingError {
-    /// The report is for spheres only.
-    #[error("the jamming report is for sphere packings (particle {0} is not a sphere)")]
-    NotSpheres(usize),
+    /// The report is for spheres and ellipsoids.
+    #[error("the jamming report is for spheres and ellipsoids (particle {0} is a cylinder)")]
+    Cylinder(usize),
+    /// Ellipsoids outside a box, or with a claimed gap (no scene makes either).
+    #[error("ellipsoid packings are analysed in box containers without gap claims: {0}")]
+    EllipsoidFile(String),
     /// The cut-off is outside `(0, 0.1]`.
     #[error("cut-off = {0}: must be > 0 and ≤ 0.1 (a relative surface gap)")]
     Cutoff(f64),
 }
 
 /// The jamming report of `packing` at contact cut-off `cutoff`, with the LP test when `lp`
-/// (seeded by `seed` for its random load, each program given at most `time_limit` seconds;
-/// a program out of time gives no verdict: `jammed` is false and its status says why).
+/// and the particles are spheres (seeded by `seed` for its random load, each program given
+/// at most `time_limit` seconds; a program out of time gives no verdict: `jammed` is false
+/// and its status says why).
 pub fn jamming_report(
     packing: &Packing,
     cutoff: f64,
@@ -149,12 +207,23 @@ pub fn jamming_report(
     if !(cutoff > 0.0 && cutoff <= 0.1) {
         return Err(JammingError::Cutoff(cutoff));
     }
-    let spheres = spheres_of(packing)?;
-    let n = spheres.len();
+    let bodies = bodies_of(packing)?;
+    let n = bodies.len();
+    let ellipsoids = bodies.iter().filter(|b| b.shape.is_some()).count();
     let periodic = periodic_axes(&packing.container);
     let trivial = periodic.iter().filter(|&&p| p).count();
     let widest = PLATEAU_CUTOFFS[PLATEAU_CUTOFFS.len() - 1].max(cutoff);
-    let (contacts, bond_normals) = near_pairs(packing, &spheres, widest);
+    let (contacts, bond_normals) = near_pairs(packing, &bodies, widest);
+    // Non-trivial degrees of freedom of the particles kept.
+    let freedoms_of = |alive: &[bool]| -> i64 {
+        let kept: i64 = bodies
+            .iter()
+            .zip(alive)
+            .filter(|(_, &a)| a)
+            .map(|(b, _)| i64::from(b.freedoms))
+            .sum();
+        kept - trivial as i64
+    };
     let row = |h: f64| -> CutoffRow {
         let (alive, backbone) = backbone(n, &contacts, h);
         let nb = alive.iter().filter(|&&a| a).count();
@@ -166,7 +235,7 @@ pub fn jamming_report(
         let walls = count - pairs;
         let b_pairs = backbone.iter().filter(|c| c.j.is_some()).count() as f64;
         let b_walls = backbone.len() as f64 - b_pairs;
-        let freedoms = 3 * nb as i64 - trivial as i64;
+        let freedoms = freedoms_of(&alive);
         CutoffRow {
             cutoff: h,
             mean_contacts: (2.0 * pairs + walls) / n.max(1) as f64,
@@ -175,9 +244,10 @@ pub fn jamming_report(
             constraints_per_freedom: (freedoms > 0).then(|| (b_pairs + b_walls) / freedoms as f64),
         }
     };
-    let lp = lp.then(|| {
+    let lp_skipped = lp && ellipsoids > 0;
+    let lp = (lp && !lp_skipped).then(|| {
         let (alive, backbone) = backbone(n, &contacts, cutoff);
-        let freedoms = 3 * alive.iter().filter(|&&a| a).count() as i64 - trivial as i64;
+        let freedoms = freedoms_of(&alive);
         if (backbone.len() as i64) < freedoms + 1 {
             // Fewer contacts than non-trivial freedoms plus the self-stress: floppy motions
             // exist by counting alone (Maxwell), no program needs to find one.
@@ -187,8 +257,13 @@ pub fn jamming_report(
         }
     });
     let bonds = bond_normals.len();
+    let freedoms_per_particle =
+        bodies.iter().map(|b| f64::from(b.freedoms)).sum::<f64>() / n.max(1) as f64;
     Ok(JammingReport {
         particles: n,
+        ellipsoids,
+        freedoms_per_particle,
+        isostatic_contacts: 2.0 * freedoms_per_particle,
         cutoff,
         at_cutoff: row(cutoff),
         plateau: PLATEAU_CUTOFFS.iter().map(|&h| row(h)).collect(),
@@ -197,20 +272,63 @@ pub fn jamming_report(
         q6_random: 1.0 / (bonds.max(1) as f64).sqrt(),
         bonds,
         lp,
+        lp_skipped,
     })
 }
 
-/// Centres and radii (inflated by half the claimed gap) of the spheres.
-fn spheres_of(packing: &Packing) -> Result<Vec<([f64; 3], f64)>, JammingError> {
+/// The particles as the report sees them: spheres with radii inflated by half the claimed
+/// gap, ellipsoids with their shape matrices (from the independent check) and degrees of
+/// freedom.
+fn bodies_of(packing: &Packing) -> Result<Vec<Body>, JammingError> {
+    let has_ellipsoids = packing
+        .particles
+        .iter()
+        .any(|p| matches!(p, ParticleRecord::Ellipsoid { .. }));
+    if has_ellipsoids {
+        // The scale factor of the gap is that of the bodies as written: a claimed gap would
+        // turn them into parallel bodies, which are no ellipsoids.
+        if packing.min_gap > 0.0 || packing.wall_gap() > 0.0 {
+            return Err(JammingError::EllipsoidFile(format!(
+                "min_gap = {}, wall_gap = {} (must be 0)",
+                packing.min_gap,
+                packing.wall_gap()
+            )));
+        }
+        if !matches!(packing.container, ContainerRecord::Box { .. }) {
+            return Err(JammingError::EllipsoidFile(
+                "the container is a cylinder (must be a box)".into(),
+            ));
+        }
+    }
     packing
         .particles
         .iter()
         .enumerate()
         .map(|(i, p)| match p {
-            ParticleRecord::Sphere { center, radius } => {
-                Ok((*center, radius + 0.5 * packing.min_gap))
+            ParticleRecord::Sphere { center, radius } => Ok(Body {
+                center: *center,
+                radius: radius + 0.5 * packing.min_gap,
+                shape: None,
+                freedoms: 3,
+            }),
+            ParticleRecord::Ellipsoid { semi_axes, .. } => {
+                let (center, radius) = bounding_sphere(p);
+                let mut a = *semi_axes;
+                a.sort_by(f64::total_cmp);
+                let close = |x: f64, y: f64| (y - x).abs() <= SPHEROID_TOLERANCE * y.abs();
+                let freedoms = match (close(a[0], a[1]), close(a[1], a[2])) {
+                    (true, true) => 3,
+                    (true, false) | (false, true) => 5,
+                    (false, false) => 6,
+                };
+                Ok(Body {
+                    center,
+                    radius,
+                    shape: shape_matrix(p),
+                    freedoms,
+                })
             }
-            _ => Err(JammingError::NotSpheres(i)),
+            ParticleRecord::Cylinder { .. } => Err(JammingError::Cylinder(i)),
         })
         .collect()
 }
@@ -218,21 +336,17 @@ fn spheres_of(packing: &Packing) -> Result<Vec<([f64; 3], f64)>, JammingError> {
 /// The contacts with relative gap below `reach` (pairs and walls), and the unit vectors of
 /// the bonds of Q6. Pairs come from a uniform grid of cells at least `1.2·2·r_max` wide, its
 /// own search (independent of the kernel's cell grid and lists): every pair closer than
-/// `1.2·(r_i + r_j)` lies in neighbouring cells.
-fn near_pairs(
-    packing: &Packing,
-    spheres: &[([f64; 3], f64)],
-    reach: f64,
-) -> (Vec<Contact>, Vec<[f64; 3]>) {
+/// `1.2·(r_i + r_j)` (bounding radii) lies in neighbouring cells.
+fn near_pairs(packing: &Packing, bodies: &[Body], reach: f64) -> (Vec<Contact>, Vec<[f64; 3]>) {
     let (lo, hi) = container_bounds(&packing.container);
     let periodic = periodic_axes(&packing.container);
     let len: [f64; 3] = std::array::from_fn(|k| hi[k] - lo[k]);
-    let r_max = spheres.iter().map(|s| s.1).fold(0.0, f64::max);
+    let r_max = bodies.iter().map(|s| s.radius).fold(0.0, f64::max);
     let width = 2.0 * BOND_REACH.max(1.0 + reach) * r_max;
-    // At most about one cell per sphere (and at least one per axis).
+    // At most about one cell per particle (and at least one per axis).
     let mut cells: [usize; 3] =
         std::array::from_fn(|k| ((len[k] / width).floor() as usize).clamp(1, 1 << 20));
-    while cells.iter().product::<usize>() > 4 * spheres.len() + 64 {
+    while cells.iter().product::<usize>() > 4 * bodies.len() + 64 {
         cells = cells.map(|c| (c / 2).max(1));
     }
     let key = |c: &[f64; 3]| -> [usize; 3] {
@@ -243,16 +357,16 @@ fn near_pairs(
     };
     let linear = |k: [usize; 3]| (k[0] * cells[1] + k[1]) * cells[2] + k[2];
     let mut start = vec![0usize; cells.iter().product::<usize>() + 1];
-    for s in spheres {
-        start[linear(key(&s.0)) + 1] += 1;
+    for b in bodies {
+        start[linear(key(&b.center)) + 1] += 1;
     }
     for c in 1..start.len() {
         start[c] += start[c - 1];
     }
-    let mut sorted = vec![0u32; spheres.len()];
+    let mut sorted = vec![0u32; bodies.len()];
     let mut fill = start.clone();
-    for (i, s) in spheres.iter().enumerate() {
-        let c = linear(key(&s.0));
+    for (i, b) in bodies.iter().enumerate() {
+        let c = linear(key(&b.center));
         sorted[fill[c]] = i as u32;
         fill[c] += 1;
     }
@@ -275,7 +389,8 @@ fn near_pairs(
     };
     let mut contacts = Vec::new();
     let mut bonds = Vec::new();
-    for (i, &(ci, ri)) in spheres.iter().enumerate() {
+    for (i, bi) in bodies.iter().enumerate() {
+        let (ci, ri) = (bi.center, bi.radius);
         let k = key(&ci);
         for x in around(0, k[0]) {
             for y in around(1, k[1]) {
@@ -285,7 +400,8 @@ fn near_pairs(
                         if j as usize <= i {
                             continue;
                         }
-                        let (cj, rj) = spheres[j as usize];
+                        let bj = &bodies[j as usize];
+                        let (cj, rj) = (bj.center, bj.radius);
                         let mut d = [0.0; 3];
                         for a in 0..3 {
                             d[a] = cj[a] - ci[a];
@@ -299,7 +415,16 @@ fn near_pairs(
                         if dist < BOND_REACH * sum {
                             bonds.push(u);
                         }
-                        let gap = dist / sum - 1.0;
+                        // Spheres: the exact relative gap. With an ellipsoid it is a lower
+                        // bound of the scale factor's gap (bounding spheres), refined below.
+                        let mut gap = dist / sum - 1.0;
+                        if gap < reach && (bi.shape.is_some() || bj.shape.is_some()) {
+                            let sphere =
+                                |r: f64| [[r * r, 0.0, 0.0], [0.0, r * r, 0.0], [0.0, 0.0, r * r]];
+                            let mi = bi.shape.unwrap_or_else(|| sphere(ri));
+                            let mj = bj.shape.unwrap_or_else(|| sphere(rj));
+                            gap = contact_scale(&mi, &mj, &d) - 1.0;
+                        }
                         if gap < reach {
                             contacts.push(Contact {
                                 i: i as u32,
@@ -312,16 +437,31 @@ fn near_pairs(
                 }
             }
         }
-        walls_of(packing, i, ci, ri, reach, &mut contacts);
+        walls_of(packing, i, bi, reach, &mut contacts);
     }
     (contacts, bonds)
 }
 
-/// The wall contacts of sphere `i` (centre `c`, radius `r`) with relative gap below `reach`.
-fn walls_of(packing: &Packing, i: usize, c: [f64; 3], r: f64, reach: f64, out: &mut Vec<Contact>) {
+/// The wall contacts of particle `i` with relative gap below `reach`: a sphere's
+/// `(distance − wall_gap − r)/r`, an ellipsoid's `(distance − w)/w` with `w = √(nᵀMn)` its
+/// half-width along the wall normal `n` (ellipsoids come in boxes without gap claims).
+fn walls_of(packing: &Packing, i: usize, body: &Body, reach: f64, out: &mut Vec<Contact>) {
     let wall_gap = packing.wall_gap() - 0.5 * packing.min_gap;
+    let c = body.center;
     let mut push = |distance: f64, normal: [f64; 3]| {
-        let gap = (distance - wall_gap - r) / r;
+        let gap = match &body.shape {
+            None => (distance - wall_gap - body.radius) / body.radius,
+            Some(m) => {
+                let mut q = 0.0;
+                for a in 0..3 {
+                    for b in 0..3 {
+                        q += normal[a] * m[a][b] * normal[b];
+                    }
+                }
+                let w = q.sqrt();
+                (distance - w) / w
+            }
+        };
         if gap < reach {
             out.push(Contact {
                 i: i as u32,
@@ -357,7 +497,8 @@ fn walls_of(packing: &Packing, i: usize, c: [f64; 3], r: f64, reach: f64, out: &
     }
 }
 
-/// The spheres left after removing rattlers iteratively at cut-off `h`, and their contacts.
+/// The particles left after removing rattlers iteratively at cut-off `h` (fewer than
+/// [`RATTLER_BELOW`] contacts), and their contacts.
 fn backbone(n: usize, contacts: &[Contact], h: f64) -> (Vec<bool>, Vec<Contact>) {
     let mut kept: Vec<Contact> = contacts.iter().copied().filter(|c| c.gap < h).collect();
     let mut alive = vec![true; n];
@@ -371,7 +512,7 @@ fn backbone(n: usize, contacts: &[Contact], h: f64) -> (Vec<bool>, Vec<Contact>)
         }
         let mut removed = false;
         for i in 0..n {
-            if alive[i] && count[i] < 4 {
+            if alive[i] && count[i] < RATTLER_BELOW {
                 alive[i] = false;
                 removed = true;
             }

@@ -1,6 +1,7 @@
-//! `densepack analyse PACKING`: is a sphere packing jammed? Contacts against the gap cut-off
-//! (the plateau), rattlers, the backbone's contact number, Q6 and the LP certificate of
-//! collective jamming ([`densepack::analysis::jamming`]).
+//! `densepack analyse PACKING`: is a sphere or ellipsoid packing jammed? Contacts against the
+//! gap cut-off (the plateau), rattlers, the backbone's contact number beside the isostatic
+//! one, Q6 and (spheres) the LP certificate of collective jamming
+//! ([`densepack::analysis::jamming`]).
 
 use clap::Args;
 use densepack::analysis::jamming::{jamming_report, JammingReport, DEFAULT_CUTOFF, Q6_FCC};
@@ -13,11 +14,13 @@ use std::process::ExitCode;
 pub struct AnalyseArgs {
     /// Packing file (JSON).
     pub packing: PathBuf,
-    /// Relative surface gap below which two spheres (or a sphere and a wall) touch.
+    /// Relative gap below which two particles (or a particle and a wall) touch: for spheres
+    /// the surface gap over the sum of radii, for ellipsoids the Perram–Wertheim scale
+    /// factor minus one.
     #[arg(long, default_value_t = DEFAULT_CUTOFF)]
     pub cutoff: f64,
     /// Skip the linear-programming test of collective jamming (it takes seconds to minutes
-    /// for 10⁴ spheres).
+    /// for 10⁴ spheres; packings with ellipsoids always skip it).
     #[arg(long)]
     pub no_lp: bool,
     /// Seconds each of the LP test's two programs may take.
@@ -67,14 +70,31 @@ pub fn run(args: &AnalyseArgs) -> ExitCode {
 /// The report for people.
 fn text(r: &JammingReport) -> String {
     let opt = |x: Option<f64>| x.map_or("–".to_string(), |v| format!("{v:.4}"));
+    // A whole number as such (3, 5, 6, 10, 12), a mean of mixed shapes to two decimals.
+    let count = |x: f64| {
+        if x.fract() == 0.0 {
+            format!("{x:.0}")
+        } else {
+            format!("{x:.2}")
+        }
+    };
+    let what = match r.ellipsoids {
+        0 => format!("spheres {}", r.particles),
+        e if e == r.particles => format!(
+            "ellipsoids {} ({} degrees of freedom each)",
+            r.particles,
+            count(r.freedoms_per_particle)
+        ),
+        e => format!("particles {} ({e} ellipsoids)", r.particles),
+    };
     let mut s = format!(
-        "spheres {}  contact cut-off {:.0e}  rigid translations {}\n",
-        r.particles, r.cutoff, r.trivial_motions
+        "{what}  contact cut-off {:.0e}  rigid translations {}\n",
+        r.cutoff, r.trivial_motions
     );
-    s += "cut-off   contacts/sphere  rattlers   backbone Z  contacts/freedom\n";
+    s += "cut-off   contacts/particle  rattlers   backbone Z  contacts/freedom\n";
     for row in &r.plateau {
         s += &format!(
-            "{:>7.0e}   {:>15.4}  {:>7.2} %  {:>10}  {:>16}\n",
+            "{:>7.0e}   {:>17.4}  {:>7.2} %  {:>10}  {:>16}\n",
             row.cutoff,
             row.mean_contacts,
             100.0 * row.rattler_fraction,
@@ -84,17 +104,36 @@ fn text(r: &JammingReport) -> String {
     }
     let a = &r.at_cutoff;
     s += &format!(
-        "at {:.0e}: rattlers {:.2} %, backbone Z {} (isostatic: 6 for a periodic packing), \
+        "at {:.0e}: rattlers {:.2} %, backbone Z {} (isostatic: {} for a periodic packing), \
          contacts per freedom {} (isostatic: 1)\n",
         a.cutoff,
         100.0 * a.rattler_fraction,
         opt(a.backbone_mean_contacts),
+        count(r.isostatic_contacts),
         opt(a.constraints_per_freedom)
     );
+    // A count still growing a hundredfold further out: the cut-off is below the plateau.
+    let further = r.plateau.iter().find(|row| row.cutoff >= 99.0 * r.cutoff);
+    if let Some(row) = further.filter(|row| a.mean_contacts < 0.95 * row.mean_contacts) {
+        s += &format!(
+            "note: the cut-off is below the plateau ({:.4} contacts per particle at {:.0e}): \
+             a packing at reduced pressure P has its contacts within about 1/P; pick a \
+             cut-off on the plateau with --cutoff\n",
+            row.mean_contacts, row.cutoff
+        );
+    }
+    if r.ellipsoids > 0 {
+        s += "jammed ellipsoid packings are hypostatic (Z below the isostatic count; Donev et al. \
+              2004, 2007): rattlers have fewer than 4 contacts\n";
+    }
     s += &format!(
         "Q6 {:.4} over {} bonds (random directions {:.4}, FCC {Q6_FCC})\n",
         r.q6, r.bonds, r.q6_random
     );
+    if r.lp_skipped {
+        s += "LP test: skipped (first-order and for spheres only: rotations and curvature \
+              decide the jamming of ellipsoids)\n";
+    }
     if let Some(lp) = r.lp.as_ref().filter(|lp| lp.seconds == 0.0 && !lp.jammed) {
         s += &format!(
             "LP test: NOT jammed, by counting: {} (floppy motions exist)\n",
