@@ -697,9 +697,10 @@ where
             }
         });
         on_stage(k, &report);
-        // A gap stage succeeds only when its time is up (every radius gained Δd/2); jamming
-        // first means the gap does not fit. Δd maximisation ends when the gap cannot grow:
-        // jammed, or time stopped advancing.
+        // A gap stage succeeds only when its time is up (every radius gained Δd/2): jamming
+        // first (`JammedBeforeGoal`, or a `reduced_pressure` goal the scene adds) means the
+        // gap does not fit. Δd maximisation ends when the gap cannot grow: jammed, or time
+        // stopped advancing.
         let reached = if spec.until.gap.is_some() {
             report.stop_reason == StopReason::TimeReached
         } else {
@@ -713,18 +714,7 @@ where
                 stage: k,
                 goal: spec.until.describe(),
                 reason: last.stop_reason.as_str(),
-                hint: match last.stop_reason {
-                    StopReason::JammedBeforeGoal => {
-                        ": the particles jammed first, so the goal cannot be reached by growth \
-                         (lower the packing fraction or gap, or grow more slowly to pack \
-                         denser)"
-                    }
-                    StopReason::Stalled => {
-                        ": simulated time stopped advancing (see `stall_epsilon` in \
-                         docs/scenes.md)"
-                    }
-                    _ => "",
-                },
+                hint: last.stop_reason.hint(),
                 events: last.counts.events,
                 fraction: last.packing_fraction,
                 pressure: last.reduced_pressure,

@@ -154,6 +154,21 @@ impl StopReason {
         )
     }
 
+    /// What a failure means for the scene, for people: `": …"`, or empty when the name
+    /// says it all.
+    pub fn hint(self) -> &'static str {
+        match self {
+            Self::JammedBeforeGoal => {
+                ": the particles jammed first, so the goal cannot be reached by growth (lower \
+                 the packing fraction or gap, or grow more slowly to pack denser)"
+            }
+            Self::Stalled => {
+                ": simulated time stopped advancing (see `stall_epsilon` in docs/scenes.md)"
+            }
+            _ => "",
+        }
+    }
+
     /// The snake-case name used in outputs.
     pub fn as_str(self) -> &'static str {
         match self {
