@@ -73,10 +73,10 @@ fn simple_cubic_lattice_is_not_collectively_jammed() {
     assert!((row.backbone_mean_contacts.unwrap() - 6.0).abs() < 1e-12);
     let lp = r.lp.expect("asked for");
     assert!(!lp.jammed, "{lp:?}");
-    assert!(
-        lp.load_work > 1e-3,
-        "a sliding plane does work under a random load: {lp:?}"
-    );
+    // A sliding plane does work under one of the two random loads: that load is not
+    // carried (the solver proves the program infeasible), the other may be.
+    assert!(lp.loads_carried.contains(&Some(false)), "{lp:?}");
+    assert!(!lp.loads_carried.contains(&None), "{lp:?}");
     // Q6 of the six bond directions ±x, ±y, ±z: P6 averages to (2·1 + 4·P6(0))/6 per pair
     // of bonds, so Q6² = (1 + 2·P6(0))/3 with P6(0) = −5/16.
     let expected = ((1.0 - 2.0 * 5.0 / 16.0) / 3.0_f64).sqrt();

@@ -28,14 +28,21 @@
 //! - **Collective jamming** (Donev, Torquato, Stillinger & Connelly, J. Comput. Phys. 197,
 //!   139, 2004): the backbone is collectively jammed (in a fixed container) when no
 //!   displacement `Δx` of its spheres opens a contact without closing another, to first
-//!   order: `u_ij·(Δx_j − Δx_i) ≥ 0` for every contact and `n_w·Δx_i ≥ 0` for every wall
-//!   contact (`u_ij` the unit vector from `i` to `j`, `n_w` the wall's inward normal) admit
-//!   only rigid translations. Two linear programs over `|Δx_k| ≤ 1` decide it: the largest
-//!   total opening `Σ u·ΔΔx` (positive: an unjamming motion) and the largest work `bᵀΔx` of a
-//!   random load `b` with zero mean (positive: a floppy motion that keeps every contact, which
-//!   a random load meets with probability 1). Jammed means both optima are zero. The LPs are
-//!   solved by the Clarabel interior-point solver; an optimum counts as zero below
-//!   [`LP_ZERO`] times its scale.
+//!   order: the openings `(Aᵀ Δx)_c = u_ij·(Δx_j − Δx_i)` of the contacts (and `n_w·Δx_i` of
+//!   the wall contacts; `u_ij` the unit vector from `i` to `j`, `n_w` the wall's inward normal)
+//!   are nowhere negative only for the rigid translations along periodic axes. The test solves
+//!   the dual of that program: by Farkas' lemma, exactly one of *(a)* some contact forces
+//!   `f ≥ 0` balance a load, `A f = b`, and *(b)* some motion `y` with `Aᵀ y ≥ 0` does negative
+//!   work `bᵀ y < 0`. Draw a random load `b` with zero mean along each periodic axis (rigid
+//!   translations do no work) and ask whether `b` and `−b` are both carried by compressive
+//!   forces. A jammed backbone carries every such load; an unjamming motion `y` has `bᵀ y ≠ 0`
+//!   with probability 1, so one of `±b` is not carried. Each question is the program
+//!   `min Σ f  s.t.  A f = b, f ≥ 0`, solved by the Clarabel interior-point solver: a jammed
+//!   backbone has strictly positive solutions (a self-stress plus a particular one), so the
+//!   solver works in the interior and converges in a few dozen iterations; a not-jammed one
+//!   ends with a certificate of infeasibility (the motion `y`). This is why the test does not
+//!   maximise the openings directly: that program's feasible set is the translations alone
+//!   when the packing is jammed (no interior), where interior-point methods crawl.
 //!
 //! **Ellipsoids** (and spheres beside them) get the same report with these changes:
 //!
@@ -75,10 +82,6 @@ pub const PLATEAU_CUTOFFS: [f64; 11] = [
 
 /// Default contact cut-off: well inside the plateau of a packing jammed to `Z = 10¹²`.
 pub const DEFAULT_CUTOFF: f64 = 1e-9;
-
-/// Relative size below which an LP optimum counts as zero (the solver's tolerances are about
-/// 10⁻⁸ of the objective's scale).
-pub const LP_ZERO: f64 = 1e-6;
 
 /// Bonds of the Q6 order: centre distance below this multiple of `r_i + r_j`.
 const BOND_REACH: f64 = 1.2;
@@ -136,13 +139,15 @@ pub struct CutoffRow {
 /// The verdict of the linear-programming test for collective jamming.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct LpCertificate {
-    /// No unjamming motion and no floppy motion: collectively jammed.
+    /// Both loads `b` and `−b` are carried: collectively jammed.
     pub jammed: bool,
-    /// Largest total opening of the contacts over `|Δx_k| ≤ 1`, per contact.
-    pub opening_per_contact: f64,
-    /// Largest work of the random load over `|Δx_k| ≤ 1`, relative to `Σ|b_k|`.
-    pub load_work: f64,
-    /// The solver's status for the two programs (`Solved`, or why not).
+    /// Whether compressive contact forces balance the random load `b` and `−b` (`None`:
+    /// not decided, see [`LpCertificate::status`]).
+    pub loads_carried: [Option<bool>; 2],
+    /// Largest contact force of the solutions found, relative to the mean load `Σ|b|/(3n)`
+    /// (`NaN` when no load is carried).
+    pub max_force: f64,
+    /// The solver's status for the two programs (`Solved`, `PrimalInfeasible`, or why not).
     pub status: [String; 2],
     /// Solver seconds for both programs.
     pub seconds: f64,
@@ -253,7 +258,7 @@ pub fn jamming_report(
             // exist by counting alone (Maxwell), no program needs to find one.
             LpCertificate::hypostatic(backbone.len(), freedoms)
         } else {
-            lp_certificate(&alive, &backbone, seed, time_limit)
+            lp_certificate(&alive, &backbone, periodic, seed, time_limit)
         }
     });
     let bonds = bond_normals.len();
@@ -565,8 +570,8 @@ impl LpCertificate {
         let why = format!("not solved: {contacts} contacts for {freedoms} freedoms");
         Self {
             jammed: false,
-            opening_per_contact: f64::NAN,
-            load_work: f64::NAN,
+            loads_carried: [Some(false); 2],
+            max_force: f64::NAN,
             status: [why.clone(), why],
             seconds: 0.0,
         }
@@ -574,10 +579,12 @@ impl LpCertificate {
 }
 
 /// The LP test of the module docs on the backbone `alive` with contacts `contacts`, each
-/// program given at most `time_limit` seconds.
+/// program given at most `time_limit` seconds; `periodic` marks the axes along which rigid
+/// translations are free.
 fn lp_certificate(
     alive: &[bool],
     contacts: &[Contact],
+    periodic: [bool; 3],
     seed: u64,
     time_limit: f64,
 ) -> LpCertificate {
@@ -597,100 +604,114 @@ fn lp_certificate(
         // Every sphere is a rattler: nothing holds the packing.
         return LpCertificate {
             jammed: false,
-            opening_per_contact: f64::NAN,
-            load_work: f64::NAN,
+            loads_carried: [Some(false); 2],
+            max_force: f64::NAN,
             status: ["no backbone".into(), "no backbone".into()],
             seconds: 0.0,
         };
     }
-    let vars = 3 * n;
-    // Rows: −(opening of contact) ≤ 0, then Δx_k ≤ 1 and −Δx_k ≤ 1.
-    let (mut rows, mut cols, mut vals) = (Vec::new(), Vec::new(), Vec::new());
-    // The opening of each contact as coefficients on Δx.
-    let mut opening_of = |row: usize, c: &Contact, rows: &mut Vec<usize>| {
-        let i = index[c.i as usize];
-        for a in 0..3 {
-            if let Some(j) = c.j {
-                let j = index[j as usize];
-                rows.push(row);
-                cols.push(3 * j + a);
-                vals.push(-c.normal[a]);
-                rows.push(row);
-                cols.push(3 * i + a);
-                vals.push(c.normal[a]);
-            } else {
-                rows.push(row);
-                cols.push(3 * i + a);
-                vals.push(-c.normal[a]);
-            }
+    // Force balance rows `3k + a` of sphere `k` along axis `a`. Along a periodic axis the
+    // rows of all spheres sum to zero (each pair force acts twice with opposite signs, walls
+    // have no normal along it), so the last sphere's row is implied and left out: the
+    // equality system keeps full row rank.
+    let dropped = |row: usize| row / 3 == n - 1 && periodic[row % 3];
+    let mut row_of = vec![usize::MAX; 3 * n];
+    let mut rows_kept = 0;
+    for (row, slot) in row_of.iter_mut().enumerate() {
+        if !dropped(row) {
+            *slot = rows_kept;
+            rows_kept += 1;
         }
-    };
-    for (row, c) in contacts.iter().enumerate() {
-        opening_of(row, c, &mut rows);
     }
     let m = contacts.len();
-    for k in 0..vars {
-        rows.extend([m + k, m + vars + k]);
-        cols.extend([k, k]);
-        vals.extend([1.0, -1.0]);
+    // Column `c` of `A`: the force of contact `c` on its spheres per unit magnitude, −u on
+    // `i` and +u on `j` (so that `(Aᵀ y)_c` is the contact's opening), +n_w on a wall's sphere.
+    // Then `−I` for `f ≥ 0` in Clarabel's form `A x + s = b, s ∈ K`.
+    let (mut rows, mut cols, mut vals) = (Vec::new(), Vec::new(), Vec::new());
+    for (col, c) in contacts.iter().enumerate() {
+        let i = index[c.i as usize];
+        let sign_i = if c.j.is_some() { -1.0 } else { 1.0 };
+        for a in 0..3 {
+            let mut push = |sphere: usize, value: f64| {
+                let row = row_of[3 * sphere + a];
+                if row != usize::MAX && value != 0.0 {
+                    rows.push(row);
+                    cols.push(col);
+                    vals.push(value);
+                }
+            };
+            push(i, sign_i * c.normal[a]);
+            if let Some(j) = c.j {
+                push(index[j as usize], c.normal[a]);
+            }
+        }
+        rows.push(rows_kept + col);
+        cols.push(col);
+        vals.push(-1.0);
     }
-    let a = CscMatrix::new_from_triplets(m + 2 * vars, vars, rows, cols, vals);
-    let mut b = vec![0.0; m];
-    b.extend(std::iter::repeat_n(1.0, 2 * vars));
-    let cones = [SupportedConeT::NonnegativeConeT(m + 2 * vars)];
-    let p = CscMatrix::zeros((vars, vars));
-    let solve = |q: &[f64]| -> (f64, String, f64) {
+    let a = CscMatrix::new_from_triplets(rows_kept + m, m, rows, cols, vals);
+    let cones = [
+        SupportedConeT::ZeroConeT(rows_kept),
+        SupportedConeT::NonnegativeConeT(m),
+    ];
+    let p = CscMatrix::zeros((m, m));
+    let q = vec![1.0; m];
+    // A random load with zero mean along each periodic axis, scaled to mean magnitude 1.
+    let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);
+    let mut load: Vec<f64> = (0..3 * n).map(|_| rng.gen_range(-1.0..1.0)).collect();
+    for axis in (0..3).filter(|&axis| periodic[axis]) {
+        let mean = load.iter().skip(axis).step_by(3).sum::<f64>() / n as f64;
+        load.iter_mut()
+            .skip(axis)
+            .step_by(3)
+            .for_each(|x| *x -= mean);
+    }
+    let mean_load = load.iter().map(|x| x.abs()).sum::<f64>() / (3 * n) as f64;
+    load.iter_mut()
+        .for_each(|x| *x /= mean_load.max(f64::MIN_POSITIVE));
+    let carried = |sign: f64| -> (Option<bool>, f64, String, f64) {
+        let mut b = vec![0.0; rows_kept + m];
+        for (row, &value) in load.iter().enumerate() {
+            if row_of[row] != usize::MAX {
+                b[row_of[row]] = sign * value;
+            }
+        }
         let settings = DefaultSettingsBuilder::default()
             .verbose(false)
+            // faer's supernodal factorisation: about 6× faster than the default QDLDL on
+            // the contact networks of 2 000 spheres (7.8 s against 49.6 s for one program).
+            .direct_solve_method("faer".to_string())
             .time_limit(time_limit)
             .build()
             .expect("valid solver settings");
-        match DefaultSolver::new(&p, q, &a, &b, &cones, settings) {
+        match DefaultSolver::new(&p, &q, &a, &b, &cones, settings) {
             Ok(mut solver) => {
                 solver.solve();
                 let s = &solver.solution;
-                let ok = matches!(s.status, SolverStatus::Solved | SolverStatus::AlmostSolved);
-                let value = if ok { -s.obj_val } else { f64::NAN };
-                (value, format!("{:?}", s.status), s.solve_time)
+                let verdict = match s.status {
+                    SolverStatus::Solved | SolverStatus::AlmostSolved => Some(true),
+                    SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => {
+                        Some(false)
+                    }
+                    _ => None,
+                };
+                let largest = if verdict == Some(true) {
+                    s.x.iter().fold(0.0_f64, |acc, &f| acc.max(f))
+                } else {
+                    f64::NAN
+                };
+                (verdict, largest, format!("{:?}", s.status), s.solve_time)
             }
-            Err(e) => (f64::NAN, format!("{e:?}"), 0.0),
+            Err(e) => (None, f64::NAN, format!("{e:?}"), 0.0),
         }
     };
-    // Maximise the total opening: q = −Σ_c (opening coefficients).
-    let mut q_open = vec![0.0; vars];
-    for c in contacts {
-        let i = index[c.i as usize];
-        for a in 0..3 {
-            if let Some(j) = c.j {
-                q_open[3 * i + a] += c.normal[a];
-                q_open[3 * index[j as usize] + a] -= c.normal[a];
-            } else {
-                q_open[3 * i + a] -= c.normal[a];
-            }
-        }
-    }
-    let (opening, status_open, t_open) = solve(&q_open);
-    // A random load with zero mean along each axis (translations do no work).
-    let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);
-    let mut load: Vec<f64> = (0..vars).map(|_| rng.gen_range(-1.0..1.0)).collect();
-    for a in 0..3 {
-        let mean = load.iter().skip(a).step_by(3).sum::<f64>() / n.max(1) as f64;
-        load.iter_mut().skip(a).step_by(3).for_each(|x| *x -= mean);
-    }
-    let scale: f64 = load
-        .iter()
-        .map(|x| x.abs())
-        .sum::<f64>()
-        .max(f64::MIN_POSITIVE);
-    let q_load: Vec<f64> = load.iter().map(|x| -x).collect();
-    let (work, status_load, t_load) = solve(&q_load);
-    let opening_per_contact = opening / m.max(1) as f64;
-    let load_work = work / scale;
+    let (plus, force_plus, status_plus, t_plus) = carried(1.0);
+    let (minus, force_minus, status_minus, t_minus) = carried(-1.0);
     LpCertificate {
-        jammed: opening_per_contact.abs() < LP_ZERO && load_work.abs() < LP_ZERO,
-        opening_per_contact,
-        load_work,
-        status: [status_open, status_load],
-        seconds: t_open + t_load,
+        jammed: plus == Some(true) && minus == Some(true),
+        loads_carried: [plus, minus],
+        max_force: force_plus.max(force_minus),
+        status: [status_plus, status_minus],
+        seconds: t_plus + t_minus,
     }
 }

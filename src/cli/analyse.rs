@@ -140,16 +140,24 @@ fn text(r: &JammingReport) -> String {
             lp.status[0].trim_start_matches("not solved: ")
         );
     } else if let Some(lp) = &r.lp {
+        let carried = |c: Option<bool>| match c {
+            Some(true) => "carried",
+            Some(false) => "not carried",
+            None => "undecided",
+        };
         s += &format!(
-            "LP test: {} (largest opening per contact {:.2e}, largest load work {:.2e}; \
-             solver {} / {}, {:.1} s)\n",
+            "LP test: {} (random load {}, its opposite {}; largest force {:.3} × the mean \
+             load; solver {} / {}, {:.1} s)\n",
             if lp.jammed {
                 "collectively jammed"
+            } else if lp.loads_carried.contains(&None) {
+                "no verdict"
             } else {
                 "NOT jammed: an unjamming or floppy motion exists"
             },
-            lp.opening_per_contact,
-            lp.load_work,
+            carried(lp.loads_carried[0]),
+            carried(lp.loads_carried[1]),
+            lp.max_force,
             lp.status[0],
             lp.status[1],
             lp.seconds
