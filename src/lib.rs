@@ -79,7 +79,6 @@
 #![warn(missing_docs)]
 
 pub mod analysis;
-pub mod bench;
 pub mod boundary;
 pub mod geometry;
 pub mod io;
