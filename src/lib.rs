@@ -14,6 +14,10 @@
 //!
 //! Same scene, seed and version give the same particles bit for bit.
 //!
+//! The default feature `cli` builds the `densepack` binary and its dependencies (clap,
+//! indicatif, plotters, cpu-time); the library needs none of them:
+//! `densepack = { version = "0.2", default-features = false }`.
+//!
 //! # Example
 //!
 //! Three hundred equal spheres seeded at packing fraction 0.3 in a periodic cube and grown to
