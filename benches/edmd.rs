@@ -1,4 +1,4 @@
-//! The sphere and concrete studies of [`densepack::bench`] as a cargo bench target; the same
+//! The sphere and concrete studies of `densepack bench` (`src/cli/studies/`) as a cargo bench target; the same
 //! code as `densepack bench` (see there and BENCHMARKS.md for what each study measures).
 //!
 //! ```text
@@ -10,10 +10,18 @@
 //! criterion, the binary benchmarks only when cargo passes `--bench` (`cargo bench`); run by
 //! `cargo test --benches` it runs one tiny scene on each queue as a smoke test.
 
-use densepack::bench::edmd::{child_memory, equilibrium_run, Tuning, QUEUES};
-use densepack::bench::{run_report, select, ReportOptions, StudyContext};
+// The studies belong to the `densepack` binary, not to the library (which builds without
+// plotters and cpu-time); this target compiles the binary's one copy of their source. It
+// uses only some of them (`dead_code`), and their unit tests run with the binary's, not in
+// this target without a test harness (their `use super::*` is unused here).
+#[path = "../src/cli/studies/mod.rs"]
+#[allow(dead_code, unused_imports)]
+mod studies;
+
 use std::path::PathBuf;
 use std::process::ExitCode;
+use studies::edmd::{child_memory, equilibrium_run, Tuning, QUEUES};
+use studies::{run_report, select, ReportOptions, StudyContext};
 
 /// The studies run without `--only`.
 const SPHERE_STUDIES: [&str; 6] = [

@@ -3,14 +3,22 @@
 //! final approach) on random moving, rotating pairs of prolate spheroids. The accuracy table
 //! (agreement, largest overlap by the independent check) is the `ellipsoid-predictor` study
 //! of `densepack bench`, printed first; the pairs are the same
-//! ([`densepack::bench::ellipsoid::pairs`]).
+//! ([`studies::ellipsoid::pairs`], `src/cli/studies/ellipsoid.rs`).
 //!
 //! `cargo bench --bench ellipsoids`
 
 use criterion::{black_box, criterion_group, criterion_main, BenchmarkId, Criterion};
-use densepack::bench::ellipsoid::{pairs, predictor, PREDICTORS};
-use densepack::bench::StudyContext;
 use std::time::Duration;
+use studies::ellipsoid::{pairs, predictor, PREDICTORS};
+use studies::StudyContext;
+
+// The studies belong to the `densepack` binary, not to the library (which builds without
+// plotters and cpu-time); this target compiles the binary's one copy of their source. It
+// uses only some of them (`dead_code`), and their unit tests run with the binary's, not in
+// this target without a test harness (their `use super::*` is unused here).
+#[path = "../src/cli/studies/mod.rs"]
+#[allow(dead_code, unused_imports)]
+mod studies;
 
 fn bench(c: &mut Criterion) {
     let context = StudyContext {

@@ -1,6 +1,6 @@
 //! Sphere + cylinder RVEs: the paper's Tables II–VI (RSA) and VII–XI (MD relaxer) beside
 //! densepack's times (Salnikov, Choï & Karamian-Surville 2014, Appendix 2–3); the study code
-//! is [`densepack::bench::mixture`], shared with `densepack bench --only mixture-tables`.
+//! is [`studies::mixture`] (`src/cli/studies/mixture.rs`), shared with `densepack bench --only mixture-tables`.
 //!
 //! ```sh
 //! cargo bench --bench mixture                      # every table (see BENCHMARKS.md)
@@ -9,7 +9,15 @@
 //! cargo bench --bench mixture -- --only rsa --wall    # wall time instead of the thread's CPU time
 //! ```
 
-use densepack::bench::mixture::{paper_tables, TablesConfig};
+// The studies belong to the `densepack` binary, not to the library (which builds without
+// plotters and cpu-time); this target compiles the binary's one copy of their source. It
+// uses only some of them (`dead_code`), and their unit tests run with the binary's, not in
+// this target without a test harness (their `use super::*` is unused here).
+#[path = "../src/cli/studies/mod.rs"]
+#[allow(dead_code, unused_imports)]
+mod studies;
+
+use studies::mixture::{paper_tables, TablesConfig};
 
 fn main() {
     let mut args = std::env::args().skip(1);

@@ -14,6 +14,10 @@
 //!
 //! Same scene, seed and version give the same particles bit for bit.
 //!
+//! The default feature `cli` builds the `densepack` binary and its dependencies (clap,
+//! indicatif, plotters, cpu-time); the library needs none of them:
+//! `densepack = { version = "0.2", default-features = false }`.
+//!
 //! # Example
 //!
 //! Three hundred equal spheres seeded at packing fraction 0.3 in a periodic cube and grown to
@@ -79,7 +83,6 @@
 #![warn(missing_docs)]
 
 pub mod analysis;
-pub mod bench;
 pub mod boundary;
 pub mod geometry;
 pub mod io;

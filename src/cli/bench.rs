@@ -1,9 +1,9 @@
 //! `densepack bench [--quick] [--only STUDY,...] [--out DIR]`: the macro benchmark suite of
-//! [`densepack::bench`], written as a report directory (`BENCHMARKS.md`, `<study>.csv`,
+//! [`super::studies`], written as a report directory (`BENCHMARKS.md`, `<study>.csv`,
 //! `<study>.svg`).
 
+use super::studies::{run_report, select, ReportOptions, StudyContext, STUDIES};
 use clap::Args;
-use densepack::bench::{run_report, select, ReportOptions, StudyContext, STUDIES};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -84,7 +84,7 @@ pub fn run(args: &BenchArgs) -> ExitCode {
 
 /// The hidden child of the memory study: `densepack bench-child-memory N QUEUE`.
 pub fn child_memory(args: &[String]) -> ExitCode {
-    match densepack::bench::edmd::child_memory(args) {
+    match super::studies::edmd::child_memory(args) {
         Ok(lines) => {
             out!("{lines}");
             ExitCode::SUCCESS

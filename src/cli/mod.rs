@@ -11,5 +11,6 @@ pub mod init;
 pub mod paths;
 pub mod plot;
 pub mod progress;
+pub mod studies;
 pub mod take;
 pub mod verify;

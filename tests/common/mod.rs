@@ -3,11 +3,12 @@
 
 use densepack::io::packing::{Packing, ParticleRecord};
 use std::path::PathBuf;
-use std::process::{Command, Output};
 
-/// Runs the `densepack` binary with `args`.
-pub fn densepack(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_densepack"))
+/// Runs the `densepack` binary with `args`. The binary exists with the `cli` feature only; the
+/// tests that call this declare `required-features = ["cli"]` in Cargo.toml.
+#[cfg(feature = "cli")]
+pub fn densepack(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_densepack"))
         .args(args)
         .output()
         .expect("densepack runs")

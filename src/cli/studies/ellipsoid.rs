@@ -4,17 +4,19 @@
 //! (Fig. 6, [`isotropy`]).
 //!
 //! Accuracy is judged by the independent check: the Perram–Wertheim contact scale of
-//! [`crate::verify::contact_scale`] at each predicted contact (< 1 would be an overlap), and
-//! for whole runs the smallest gap that [`crate::verify`] finds in the written packing. The
+//! [`densepack::verify::contact_scale`] at each predicted contact (< 1 would be an overlap), and
+//! for whole runs the smallest gap that [`densepack::verify`] finds in the written packing. The
 //! contact tolerance (scene key `particles.ellipsoid.contact_tolerance`, default 10⁻¹² of the
 //! smallest semi-axis) is swept in [`predictor`]: time per prediction and worst overlap on the
 //! pairs, and a whole jamming run per tolerance (`tolerance_runs`).
 
 use super::{median, spread, Figure, Series, StudyContext, StudyOutput, Table};
-use crate::io::scene::Scene;
-use crate::run::run_scene;
-use crate::shape::{predict_ellipsoid_pair, Ellipsoid, Predictor, Spin, Vec3, CONTACT_TOLERANCE};
-use crate::verify::contact_scale;
+use densepack::io::scene::Scene;
+use densepack::run::run_scene;
+use densepack::shape::{
+    predict_ellipsoid_pair, Ellipsoid, Predictor, Spin, Vec3, CONTACT_TOLERANCE,
+};
+use densepack::verify::contact_scale;
 use nalgebra::{Matrix3, UnitQuaternion};
 use rand::{Rng, SeedableRng};
 use rand_distr::StandardNormal;
@@ -280,12 +282,12 @@ fn tolerance_sweep(ctx: &StudyContext, ratios: &[f64], count: usize, repeats: us
 fn tolerance_runs(ctx: &StudyContext) -> Table {
     let (text, what) = if ctx.quick {
         (
-            include_str!("../../examples/scenes/ellipsoids_prolate_r2_n30.toml"),
+            include_str!("../../../examples/scenes/ellipsoids_prolate_r2_n30.toml"),
             "`ellipsoids_prolate_r2_n30.toml` (30 prolate spheroids R = 2 grown to φ 0.60)",
         )
     } else {
         (
-            include_str!("../../examples/scenes/sample_ellipsoids.toml"),
+            include_str!("../../../examples/scenes/sample_ellipsoids.toml"),
             "`sample_ellipsoids.toml` (200 prolate spheroids R = 1.5 grown to Z = 10⁶)",
         )
     };
@@ -345,73 +347,73 @@ pub fn table2(ctx: &StudyContext) -> StudyOutput {
     let cases = [
         (
             "R1 = R2 = 2 (prolate) → φ 0.60",
-            include_str!("../../examples/scenes/ellipsoids_prolate_r2_n30.toml"),
+            include_str!("../../../examples/scenes/ellipsoids_prolate_r2_n30.toml"),
             30,
             54.3,
         ),
         (
             "R1 = 2, R2 = 1 (oblate) → φ 0.60",
-            include_str!("../../examples/scenes/ellipsoids_oblate_r2_n30.toml"),
+            include_str!("../../../examples/scenes/ellipsoids_oblate_r2_n30.toml"),
             30,
             52.7,
         ),
         (
             "R1 = R2 = 5 (prolate) → φ 0.55",
-            include_str!("../../examples/scenes/ellipsoids_prolate_r5_n45.toml"),
+            include_str!("../../../examples/scenes/ellipsoids_prolate_r5_n45.toml"),
             45,
             69.9,
         ),
         (
             "R1 = 5, R2 = 1 (oblate) → φ 0.55",
-            include_str!("../../examples/scenes/ellipsoids_oblate_r5_n45.toml"),
+            include_str!("../../../examples/scenes/ellipsoids_oblate_r5_n45.toml"),
             45,
             65.2,
         ),
         (
             "R1 = R2 = 10 (prolate) → φ 0.30",
-            include_str!("../../examples/scenes/ellipsoids_prolate_r10_n90.toml"),
+            include_str!("../../../examples/scenes/ellipsoids_prolate_r10_n90.toml"),
             90,
             48.6,
         ),
         (
             "R1 = R2 = 20 (prolate) → φ 0.20",
-            include_str!("../../examples/scenes/ellipsoids_prolate_r20_n175.toml"),
+            include_str!("../../../examples/scenes/ellipsoids_prolate_r20_n175.toml"),
             175,
             112.5,
         ),
         (
             "R1 = R2 = 30 (prolate) → φ 0.10",
-            include_str!("../../examples/scenes/ellipsoids_prolate_r30_n175.toml"),
+            include_str!("../../../examples/scenes/ellipsoids_prolate_r30_n175.toml"),
             175,
             104.9,
         ),
         (
             "R1 = R2 = 40 (prolate) → φ 0.10",
-            include_str!("../../examples/scenes/ellipsoids_prolate_r40_n310.toml"),
+            include_str!("../../../examples/scenes/ellipsoids_prolate_r40_n310.toml"),
             310,
             181.3,
         ),
         (
             "R1 = 10, R2 = 1 (oblate) → φ 0.30",
-            include_str!("../../examples/scenes/ellipsoids_oblate_r10_n60.toml"),
+            include_str!("../../../examples/scenes/ellipsoids_oblate_r10_n60.toml"),
             60,
             39.3,
         ),
         (
             "R1 = 20, R2 = 1 (oblate) → φ 0.20",
-            include_str!("../../examples/scenes/ellipsoids_oblate_r20_n75.toml"),
+            include_str!("../../../examples/scenes/ellipsoids_oblate_r20_n75.toml"),
             75,
             47.8,
         ),
         (
             "R1 = 30, R2 = 1 (oblate) → φ 0.10",
-            include_str!("../../examples/scenes/ellipsoids_oblate_r30_n90.toml"),
+            include_str!("../../../examples/scenes/ellipsoids_oblate_r30_n90.toml"),
             90,
             53.7,
         ),
         (
             "R1 = 40, R2 = 1 (oblate) → φ 0.10",
-            include_str!("../../examples/scenes/ellipsoids_oblate_r40_n100.toml"),
+            include_str!("../../../examples/scenes/ellipsoids_oblate_r40_n100.toml"),
             100,
             92.8,
         ),
@@ -542,7 +544,7 @@ fn isotropic_reference(n: usize, draws: usize, seed: u64) -> f64 {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
     let total: f64 = (0..draws)
         .map(|_| {
-            crate::run::ellipsoid::axis_tensor((0..n).map(|_| normal3(&mut rng).normalize())).1
+            densepack::run::ellipsoid::axis_tensor((0..n).map(|_| normal3(&mut rng).normalize())).1
         })
         .sum();
     total / draws as f64
@@ -559,12 +561,12 @@ pub fn isotropy(ctx: &StudyContext) -> StudyOutput {
     let cases = [
         (
             "prolate R = 2, φ 0.30",
-            include_str!("../../examples/scenes/ellipsoids_prolate_r2_n30.toml"),
+            include_str!("../../../examples/scenes/ellipsoids_prolate_r2_n30.toml"),
             0.30,
         ),
         (
             "prolate R = 10, φ 0.10",
-            include_str!("../../examples/scenes/ellipsoids_prolate_r10_n90.toml"),
+            include_str!("../../../examples/scenes/ellipsoids_prolate_r10_n90.toml"),
             0.10,
         ),
     ];

@@ -4,13 +4,13 @@
 //! residual overlap ([`relaxer`]).
 //!
 //! Every packing counted as a success is accepted by the independent check
-//! ([`crate::verify::verify`]: GJK separating-plane certificates over all periodic images).
+//! ([`densepack::verify::verify`]: GJK separating-plane certificates over all periodic images).
 
 use super::{median, Figure, Series, StudyContext, StudyOutput, Table};
-use crate::protocol::mixture::relax::{random_rve, relax, RelaxSettings};
-use crate::protocol::mixture::rsa::{rsa_mixture, RsaLimits};
-use crate::protocol::mixture::{GenerationOrder, MixtureSpec};
-use crate::verify::verify;
+use densepack::protocol::mixture::relax::{random_rve, relax, RelaxSettings};
+use densepack::protocol::mixture::rsa::{rsa_mixture, RsaLimits};
+use densepack::protocol::mixture::{GenerationOrder, MixtureSpec};
+use densepack::verify::verify;
 use rand::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
 use std::time::{Duration, Instant};
@@ -126,7 +126,8 @@ pub fn generate(
         }
         cpu_seconds = batch.elapsed().as_secs_f64() / f64::from(repeats);
     }
-    let packing = crate::run::mixture_packing(&rve, seed, seconds, method, serde_json::Map::new());
+    let packing =
+        densepack::run::mixture_packing(&rve, seed, seconds, method, serde_json::Map::new());
     let v = verify(&packing);
     if !v.ok() {
         return Err(GenerationFailure::Rejected(format!("{:?}", v.violations)));

@@ -16,13 +16,13 @@
 //!   10¹²: events/s, and the smallest gaps to pairs and walls by the independent check.
 
 use super::{Figure, Series, StudyContext, StudyOutput, Table};
-use crate::io::scene::Scene;
-use crate::run::run_scene;
+use densepack::io::scene::Scene;
+use densepack::run::run_scene;
 use std::time::Instant;
 
-const FULLER_SCENE: &str = include_str!("../../examples/scenes/fuller_80mm_walls.toml");
-const GAP_SCENE: &str = include_str!("../../examples/scenes/a16_80mm_gap1.toml");
-const GAPMAX_SCENE: &str = include_str!("../../examples/scenes/b16_150mm_gapmax.toml");
+const FULLER_SCENE: &str = include_str!("../../../examples/scenes/fuller_80mm_walls.toml");
+const GAP_SCENE: &str = include_str!("../../../examples/scenes/a16_80mm_gap1.toml");
+const GAPMAX_SCENE: &str = include_str!("../../../examples/scenes/b16_150mm_gapmax.toml");
 
 /// Replaces the line starting with `key =` (first occurrence) by `key = value`.
 fn set(scene: &str, key: &str, value: &str) -> String {

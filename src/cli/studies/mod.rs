@@ -1,6 +1,11 @@
 //! Macro benchmarks: the studies behind `densepack bench` and the `cargo bench` binaries
 //! (`benches/edmd.rs`, `benches/mixture.rs`, `benches/ellipsoids.rs`), one copy of each.
 //!
+//! Part of the binary, not of the library (they need `plotters` and `cpu-time`, which a program
+//! using the library should not build): `main.rs` declares them under `cli`, and each bench
+//! target compiles this same source as a module of its own (`#[path]`). So the studies reach
+//! the library through `densepack::`, like any user, and use nothing of `cli` besides.
+//!
 //! A study runs whole scenes (release build), and returns a [`StudyOutput`]: its markdown
 //! section (tables with the exact parameters in their captions), one long-format CSV table and
 //! one [`Figure`]. [`run_report`] runs the selected studies and writes, into one directory,
@@ -21,7 +26,7 @@ pub mod mixture;
 mod plot;
 mod table;
 
-pub use plot::{Figure, Series, SeriesStyle};
+pub use plot::{Figure, Series};
 pub use table::{median, si, slope, spread, Table};
 
 use std::fmt::Write as _;
@@ -265,7 +270,7 @@ pub fn write_study(dir: &Path, name: &str, output: &StudyOutput) -> std::io::Res
 /// Replaces `path` with `bytes` atomically (no half-written file).
 fn write_file(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     use std::io::Write as _;
-    crate::io::packing::write_atomically(path, |w| w.write_all(bytes))
+    densepack::io::packing::write_atomically(path, |w| w.write_all(bytes))
 }
 
 /// Machine information as a markdown list: CPU model and cores (`/proc/cpuinfo`), OS, load,

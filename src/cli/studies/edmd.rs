@@ -22,10 +22,10 @@
 //! * [`memory`] — peak resident memory per particle, measured in a child process.
 
 use super::{median, si, slope, spread, Figure, Series, StudyContext, StudyOutput, Table};
-use crate::io::scene::{ContainerSpec, Scene};
-use crate::kernel::StageReport;
-use crate::queue::QueueKind;
-use crate::run::run_scene;
+use densepack::io::scene::{ContainerSpec, Scene};
+use densepack::kernel::StageReport;
+use densepack::queue::QueueKind;
+use densepack::run::run_scene;
 use std::process::Command;
 
 /// Seed of every scene unless a study varies it.
@@ -33,7 +33,7 @@ const SEED: u64 = 2026;
 /// Packing fraction of the RSA seeding.
 const SEED_FRACTION: f64 = 0.3;
 /// The default scene of the `jamming` study.
-const JAM_SCENE: &str = include_str!("../../examples/scenes/mono_periodic_jam.toml");
+const JAM_SCENE: &str = include_str!("../../../examples/scenes/mono_periodic_jam.toml");
 /// Both event queues, by their scene names.
 pub const QUEUES: [&str; 2] = ["heap", "calendar"];
 
