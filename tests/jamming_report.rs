@@ -105,22 +105,36 @@ fn walled_cube_of_eight_spheres_is_jammed_by_its_walls() {
 
 #[test]
 fn a_loose_sphere_is_a_rattler_and_the_plateau_sees_each_gap() {
-    // Simple cubic, spacing 1 + 1e-7 diameters: pairs at relative gap 1e-7.
+    // FCC, nearest-neighbour distance 1 + 1e-7 diameters: pairs at relative gap 1e-7.
     let s = 1.0 + 1e-7;
-    let mut particles = lattice(4, s, &[[0.0; 3]], 0.5);
-    // One sphere shrunk by 1 %: no contact left, a rattler; its six neighbours keep five.
+    let a = 2.0_f64.sqrt() * s;
+    let mut particles = lattice(4, a, &FCC, 0.5);
+    // One sphere shrunk by 1 %: no contact left, a rattler; its twelve neighbours keep
+    // eleven, spread over every hemisphere.
     if let ParticleRecord::Sphere { radius, .. } = &mut particles[0] {
         *radius = 0.495;
     }
-    let packing = Packing::new(periodic_box(4.0 * s), particles);
+    let packing = Packing::new(periodic_box(4.0 * a), particles);
     let r = jamming_report(&packing, 1e-6, false, 1, 1.0).unwrap();
     assert!(r.lp.is_none());
-    assert_eq!(r.at_cutoff.rattler_fraction, 1.0 / 64.0);
+    assert_eq!(r.at_cutoff.rattler_fraction, 1.0 / 256.0);
     let at = |h: f64| r.plateau.iter().find(|row| row.cutoff == h).unwrap();
-    // Below the gap nothing touches (all rattlers); above it 3·64 − 6 pairs do.
+    // Below the gap nothing touches (all rattlers); above it 6·256 − 12 pairs do.
     assert_eq!(at(1e-8).mean_contacts, 0.0);
     assert_eq!(at(1e-8).rattler_fraction, 1.0);
-    assert!((at(1e-6).mean_contacts - 2.0 * (3.0 * 64.0 - 6.0) / 64.0).abs() < 1e-12);
+    assert!((at(1e-6).mean_contacts - 2.0 * (6.0 * 256.0 - 12.0) / 256.0).abs() < 1e-12);
+}
+
+#[test]
+fn a_vacancy_in_simple_cubic_frees_every_sphere_to_first_order() {
+    // Beside a vacancy a sphere keeps five contacts, all with no component towards the
+    // vacancy: it can slide into it (its contact directions lie in a closed hemisphere), then
+    // its neighbour along the row can follow, and so on: no sphere is locally jammed.
+    let mut particles = lattice(4, 1.0, &[[0.0; 3]], 0.5);
+    particles.remove(0);
+    let packing = Packing::new(periodic_box(4.0), particles);
+    let r = jamming_report(&packing, 1e-9, false, 1, 1.0).unwrap();
+    assert_eq!(r.at_cutoff.rattler_fraction, 1.0);
 }
 
 #[test]
@@ -386,4 +400,29 @@ fn analyse_refuses_cylinders_with_exit_code_2() {
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("particle 0 is a cylinder"), "{err}");
+}
+
+#[test]
+fn a_sphere_whose_four_contacts_lie_in_one_hemisphere_is_a_rattler() {
+    // FCC with nearest-neighbour distance 1. Sphere 0 moves by t along +x and shrinks until it
+    // touches its four neighbours at (1, ±1, 0)/√2 and (1, 0, ±1)/√2: contact distance
+    // |n − t·x̂| = √(1 − √2·t + t²). Four contacts (enough by count) all with x > 0: it can
+    // move along −x freely, so it is not locally jammed.
+    let a = 2.0_f64.sqrt();
+    let t = 0.1;
+    let reach = (1.0 - 2.0_f64.sqrt() * t + t * t).sqrt();
+    let mut particles = lattice(4, a, &FCC, 0.5);
+    if let ParticleRecord::Sphere { center, radius } = &mut particles[0] {
+        center[0] += t;
+        *radius = reach - 0.5;
+    }
+    let packing = Packing::new(periodic_box(4.0 * a), particles);
+    let r = jamming_report(&packing, 1e-9, false, 1, 1.0).unwrap();
+    assert_eq!(r.at_cutoff.rattler_fraction, 1.0 / 256.0);
+    // The backbone is the other 255 spheres with the crystal's 12·256/2 pairs less sphere 0's
+    // twelve.
+    let pairs = (12 * 256 / 2 - 12) as f64;
+    let expected = 2.0 * pairs / 255.0;
+    let z = r.at_cutoff.backbone_mean_contacts.unwrap();
+    assert!((z - expected).abs() < 1e-12, "{z} vs {expected}");
 }

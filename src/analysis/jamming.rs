@@ -10,9 +10,15 @@
 //!   pressure `Z` has its contacts within about `1/Z` and its next neighbours orders of
 //!   magnitude further: the count is flat over a wide range of `h` (the *plateau*, reported
 //!   for `h = 10⁻¹⁴ … 10⁻⁴`).
-//! - **Rattlers** are removed iteratively: a sphere with fewer than `d + 1 = 4` contacts
-//!   (walls included) cannot be locally jammed; removing it may leave a neighbour with fewer
-//!   than 4, and so on. The rest is the *backbone*.
+//! - **Rattlers** are the spheres that are not *locally jammed* (Torquato & Stillinger,
+//!   J. Phys. Chem. B 105, 11849, 2001): with the others held fixed, a sphere can move when
+//!   the directions `d_k` to its contacts (walls included) lie in a closed hemisphere,
+//!   `w·d_k ≤ 0` for some `w ≠ 0` and every `k` (it moves along `w`, opening or sliding
+//!   along each contact). That is always so with fewer than `d + 1 = 4` contacts; with more
+//!   it is tested directly: if such a `w` exists, one exists on the intersection of two
+//!   contact planes, `w ∥ d_a × d_b`, so the pairs' cross products are the only candidates.
+//!   Rattlers are removed iteratively (removing one may free a neighbour); the rest is the
+//!   *backbone*.
 //! - **Isostaticity.** The backbone of `n` spheres has `3n − t` non-trivial degrees of freedom
 //!   (`t` = 3 rigid translations along periodic axes, fewer with walls). A collectively jammed
 //!   network needs at least `3n − t + 1` contacts (one self-stress to carry the pressure);
@@ -55,8 +61,10 @@
 //!   `(distance to the wall − w)/w`, `w = √(nᵀMn)` the half-width along the wall normal `n`
 //!   (`M = R·diag(a², b², c²)·Rᵀ`): the same scale factor against the plane. Ellipsoids come
 //!   in boxes without gap claims (the scenes allow nothing else); other files are refused.
-//! - The rattler rule stays *fewer than `d + 1 = 4` contacts*: a frictionless particle whose
-//!   contacts all push on it needs four for force balance whatever its shape. The stricter
+//! - The rattler rule for an ellipsoid is *fewer than `d + 1 = 4` contacts* only: a
+//!   frictionless particle whose contacts all push on it needs four for force balance
+//!   whatever its shape; the hemisphere test needs the contact normals, which for an
+//!   ellipsoid are not along the line of centres. The stricter
 //!   first-order count `d_f + 1` (force and torque) is not used: Donev, Connelly, Stillinger &
 //!   Torquato (PRE 75, 051304, 2007) show that curved particles are jammed with fewer
 //!   contacts through second-order (curvature) terms, so it would discard jammed particles.
@@ -91,6 +99,10 @@ pub const Q6_FCC: f64 = 0.574_52;
 
 /// Rattlers have fewer contacts than this (see the module docs).
 const RATTLER_BELOW: u32 = 4;
+
+/// Contact directions closer than this (in sine or cosine) to a hemisphere's boundary count
+/// as on it: far below any angle a contact network resolves, far above rounding.
+const HEMISPHERE_TOLERANCE: f64 = 1e-12;
 
 /// Semi-axes this close (relative) make a spheroid: five degrees of freedom.
 const SPHEROID_TOLERANCE: f64 = 1e-9;
@@ -215,6 +227,7 @@ pub fn jamming_report(
     let bodies = bodies_of(packing)?;
     let n = bodies.len();
     let ellipsoids = bodies.iter().filter(|b| b.shape.is_some()).count();
+    let sphere: Vec<bool> = bodies.iter().map(|b| b.shape.is_none()).collect();
     let periodic = periodic_axes(&packing.container);
     let trivial = periodic.iter().filter(|&&p| p).count();
     let widest = PLATEAU_CUTOFFS[PLATEAU_CUTOFFS.len() - 1].max(cutoff);
@@ -230,7 +243,7 @@ pub fn jamming_report(
         kept - trivial as i64
     };
     let row = |h: f64| -> CutoffRow {
-        let (alive, backbone) = backbone(n, &contacts, h);
+        let (alive, backbone) = backbone(n, &contacts, h, &sphere);
         let nb = alive.iter().filter(|&&a| a).count();
         let count = contacts.iter().filter(|c| c.gap < h).count() as f64;
         let pairs = contacts
@@ -251,7 +264,7 @@ pub fn jamming_report(
     };
     let lp_skipped = lp && ellipsoids > 0;
     let lp = (lp && !lp_skipped).then(|| {
-        let (alive, backbone) = backbone(n, &contacts, cutoff);
+        let (alive, backbone) = backbone(n, &contacts, cutoff, &sphere);
         let freedoms = freedoms_of(&alive);
         if (backbone.len() as i64) < freedoms + 1 {
             // Fewer contacts than non-trivial freedoms plus the self-stress: floppy motions
@@ -502,22 +515,31 @@ fn walls_of(packing: &Packing, i: usize, body: &Body, reach: f64, out: &mut Vec<
     }
 }
 
-/// The particles left after removing rattlers iteratively at cut-off `h` (fewer than
-/// [`RATTLER_BELOW`] contacts), and their contacts.
-fn backbone(n: usize, contacts: &[Contact], h: f64) -> (Vec<bool>, Vec<Contact>) {
+/// The particles left after removing rattlers iteratively at cut-off `h`, and their
+/// contacts: fewer than [`RATTLER_BELOW`] contacts, or (spheres, `sphere[i]`) contact
+/// directions in a closed hemisphere (see the module docs).
+fn backbone(n: usize, contacts: &[Contact], h: f64, sphere: &[bool]) -> (Vec<bool>, Vec<Contact>) {
     let mut kept: Vec<Contact> = contacts.iter().copied().filter(|c| c.gap < h).collect();
     let mut alive = vec![true; n];
     loop {
-        let mut count = vec![0u32; n];
+        // Directions from each particle to its contacts.
+        let mut directions: Vec<Vec<[f64; 3]>> = vec![Vec::new(); n];
         for c in &kept {
-            count[c.i as usize] += 1;
-            if let Some(j) = c.j {
-                count[j as usize] += 1;
+            let u = c.normal;
+            let minus = [-u[0], -u[1], -u[2]];
+            match c.j {
+                Some(j) => {
+                    directions[c.i as usize].push(u);
+                    directions[j as usize].push(minus);
+                }
+                None => directions[c.i as usize].push(minus),
             }
         }
         let mut removed = false;
         for i in 0..n {
-            if alive[i] && count[i] < RATTLER_BELOW {
+            let d = &directions[i];
+            let free = d.len() < RATTLER_BELOW as usize || (sphere[i] && in_closed_hemisphere(d));
+            if alive[i] && free {
                 alive[i] = false;
                 removed = true;
             }
@@ -527,6 +549,36 @@ fn backbone(n: usize, contacts: &[Contact], h: f64) -> (Vec<bool>, Vec<Contact>)
         }
         kept.retain(|c| alive[c.i as usize] && c.j.is_none_or(|j| alive[j as usize]));
     }
+}
+
+/// Whether the unit vectors `d` lie in a closed hemisphere: some `w ≠ 0` has `w·d_k ≤ 0`
+/// for every `k`. Candidates are `±(d_a × d_b)` (see the module docs); vectors all parallel
+/// (no independent pair) always lie in one. Dot products within [`HEMISPHERE_TOLERANCE`] of
+/// zero count as on the boundary.
+fn in_closed_hemisphere(d: &[[f64; 3]]) -> bool {
+    let mut independent = false;
+    for (a, u) in d.iter().enumerate() {
+        for v in &d[a + 1..] {
+            let w = [
+                u[1] * v[2] - u[2] * v[1],
+                u[2] * v[0] - u[0] * v[2],
+                u[0] * v[1] - u[1] * v[0],
+            ];
+            let norm = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
+            if norm < HEMISPHERE_TOLERANCE {
+                continue;
+            }
+            independent = true;
+            let dots = d
+                .iter()
+                .map(|x| (w[0] * x[0] + w[1] * x[1] + w[2] * x[2]) / norm);
+            let (low, high) = dots.fold((0.0_f64, 0.0_f64), |(lo, hi), t| (lo.min(t), hi.max(t)));
+            if high <= HEMISPHERE_TOLERANCE || low >= -HEMISPHERE_TOLERANCE {
+                return true;
+            }
+        }
+    }
+    !independent
 }
 
 /// Global Q6 of the bonds `u` through the moment tensors of orders 2, 4 and 6.
