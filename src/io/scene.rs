@@ -68,12 +68,12 @@
 //! Every table rejects unknown keys; [`Scene::validate`] names the offending field and its
 //! allowed range.
 
-use crate::kernel::{
-    KernelConfig, Limits, PressureAdaptive, RateSchedule, Stage, Until, JAMMING_PRESSURE, MAX_SKIN,
-};
 use crate::protocol::take_phase::{GradingSpec, TakeError, TakeParams, TakePhase};
 use crate::queue::QueueKind;
-use crate::shape::{Growth, MassRule, Predictor, CONTACT_TOLERANCE, MAX_CONTACT_TOLERANCE};
+use crate::shape::{MassRule, Predictor, CONTACT_TOLERANCE, MAX_CONTACT_TOLERANCE};
+use crate::tuning::{
+    DEFAULT_EVENTS_PER_INTERVAL, DEFAULT_NEIGHBOUR_SKIN, DEFAULT_TEMPERATURE, MAX_SKIN,
+};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 
@@ -127,15 +127,15 @@ pub enum Method {
 }
 
 fn default_temperature() -> f64 {
-    KernelConfig::default().temperature
+    DEFAULT_TEMPERATURE
 }
 
 fn default_events_per_interval() -> f64 {
-    KernelConfig::default().events_per_particle_per_interval
+    DEFAULT_EVENTS_PER_INTERVAL
 }
 
 fn default_neighbour_skin() -> f64 {
-    KernelConfig::default().neighbour_skin
+    DEFAULT_NEIGHBOUR_SKIN
 }
 
 /// The container of a scene, written as a table with a `type` key (`type = "box"`).
@@ -478,7 +478,8 @@ pub struct StageSpec {
     pub adaptive: Option<AdaptiveSpec>,
 }
 
-/// The pressure-adaptive rate of a stage ([`crate::kernel::PressureAdaptive`]).
+/// The pressure-adaptive rate of a stage (the runner, `crate::run`, makes it the kernel's
+/// `PressureAdaptive` rate schedule).
 #[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct AdaptiveSpec {
@@ -1492,61 +1493,6 @@ impl StageSpec {
             (Some(x), _, _) => x,
             (None, Some(w), Some(g)) => w / g,
             _ => 0.5,
-        }
-    }
-
-    /// The kernel stage this spec describes. `full_size_fraction` is the packing fraction
-    /// of the spheres at their true sizes (the `full_size` goal).
-    pub fn to_stage(&self, full_size_fraction: f64) -> Stage {
-        let growth = match (self.growth, self.rate) {
-            (GrowthKind::Relative, Some(r)) => Growth::Relative(r),
-            (GrowthKind::Absolute, Some(r)) => Growth::Absolute(r),
-            _ => Growth::None,
-        };
-        let u = &self.until;
-        let mut until = Until {
-            packing_fraction: u.packing_fraction,
-            reduced_pressure: u.reduced_pressure,
-            time: u.time,
-            collisions_per_particle: u.collisions_per_particle,
-        };
-        if u.full_size == Some(true) {
-            until.packing_fraction = Some(full_size_fraction);
-        }
-        if let (Some(gap), Some(rate)) = (u.gap, self.rate) {
-            // Every radius gains Δd/2 at the absolute rate (Eq. 31).
-            let t = 0.5 * gap / rate;
-            until.time = Some(until.time.map_or(t, |x| x.min(t)));
-        }
-        // Δd maximisation ends when the grains jam; any other growing stage that jams fails
-        // there (`Limits::jamming_pressure`) instead of grinding on.
-        if u.max_gap == Some(true) && until.reduced_pressure.is_none() {
-            until.reduced_pressure = Some(JAMMING_PRESSURE);
-        }
-        Stage {
-            growth,
-            schedule: match self.adaptive {
-                Some(a) => RateSchedule::PressureAdaptive(PressureAdaptive {
-                    onset: a.onset_pressure,
-                    exponent: a.exponent,
-                    min_rate: a.min_rate,
-                }),
-                None => RateSchedule::Fixed,
-            },
-            until,
-            limits: Limits {
-                events: self.max_events.unwrap_or(u64::MAX),
-                wall_seconds: self.max_wall_seconds,
-                stall_epsilon: self.stall_epsilon.unwrap_or(0.0),
-                jamming_pressure: Some(JAMMING_PRESSURE),
-            },
-            thermostat: self.thermostat.unwrap_or(growth != Growth::None),
-            // The walls see a grain grow at 2λ times its rate: wall gap λ·Δd(t), Δd = 2·rate·t.
-            wall_growth: if self.opens_gap() {
-                2.0 * self.wall_gap_fraction()
-            } else {
-                1.0
-            },
         }
     }
 }

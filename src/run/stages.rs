@@ -1,5 +1,5 @@
-//! The stages of an EDMD run and what they leave: the stage loop over the scene's stage
-//! specs (with checkpoints at barriers and the gap history of a gap stage), the kernel
+//! The stages of an EDMD run and what they leave: the scene's stage specs as kernel stages
+//! ([`kernel_stage`]), the stage loop over them (with checkpoints at barriers and the gap history of a gap stage), the kernel
 //! settings of a scene, a resumed kernel, the run's statistics and provenance, and the
 //! packing in the scene's units and frame, checked independently ([`finish`]).
 
@@ -9,11 +9,14 @@ use crate::io::checkpoint::{write_checkpoint, CheckpointFile, CheckpointHeader};
 use crate::io::packing::{
     ContainerRecord, Packing, PackingStats, ParticleRecord, Provenance, Timings,
 };
-use crate::io::scene::Scene;
+use crate::io::scene::{GrowthKind, Scene, StageSpec};
 use crate::io::units::Units;
-use crate::kernel::{Edmd, KernelConfig, Progress, StageProgress, StageReport, StopReason};
+use crate::kernel::{
+    Edmd, KernelConfig, Limits, PressureAdaptive, Progress, RateSchedule, Stage, StageProgress,
+    StageReport, StopReason, Until, JAMMING_PRESSURE,
+};
 use crate::queue::EventQueue;
-use crate::shape::{Collidable, Vec3};
+use crate::shape::{Collidable, Growth, Vec3};
 use crate::verify::verify;
 
 /// Writes a checkpoint at a barrier once `plan.every` has passed since the last one.
@@ -92,6 +95,62 @@ pub(super) fn kernel_config(scene: &Scene) -> KernelConfig {
         temperature: scene.temperature,
         events_per_particle_per_interval: scene.events_per_particle_per_interval,
         neighbour_skin: scene.neighbour_skin,
+    }
+}
+
+/// The kernel stage a scene's stage `spec` describes. `full_size_fraction` is the packing
+/// fraction of the particles at their true sizes (the `full_size` goal). The schema
+/// (`io::scene`) validates and describes the spec; the conversion is the runner's.
+pub fn kernel_stage(spec: &StageSpec, full_size_fraction: f64) -> Stage {
+    let growth = match (spec.growth, spec.rate) {
+        (GrowthKind::Relative, Some(r)) => Growth::Relative(r),
+        (GrowthKind::Absolute, Some(r)) => Growth::Absolute(r),
+        _ => Growth::None,
+    };
+    let u = &spec.until;
+    let mut until = Until {
+        packing_fraction: u.packing_fraction,
+        reduced_pressure: u.reduced_pressure,
+        time: u.time,
+        collisions_per_particle: u.collisions_per_particle,
+    };
+    if u.full_size == Some(true) {
+        until.packing_fraction = Some(full_size_fraction);
+    }
+    if let (Some(gap), Some(rate)) = (u.gap, spec.rate) {
+        // Every radius gains Δd/2 at the absolute rate (Eq. 31).
+        let t = 0.5 * gap / rate;
+        until.time = Some(until.time.map_or(t, |x| x.min(t)));
+    }
+    // Δd maximisation ends when the grains jam; any other growing stage that jams fails
+    // there (`Limits::jamming_pressure`) instead of grinding on.
+    if u.max_gap == Some(true) && until.reduced_pressure.is_none() {
+        until.reduced_pressure = Some(JAMMING_PRESSURE);
+    }
+    Stage {
+        growth,
+        schedule: match spec.adaptive {
+            Some(a) => RateSchedule::PressureAdaptive(PressureAdaptive {
+                onset: a.onset_pressure,
+                exponent: a.exponent,
+                min_rate: a.min_rate,
+            }),
+            None => RateSchedule::Fixed,
+        },
+        until,
+        limits: Limits {
+            events: spec.max_events.unwrap_or(u64::MAX),
+            wall_seconds: spec.max_wall_seconds,
+            stall_epsilon: spec.stall_epsilon.unwrap_or(0.0),
+            jamming_pressure: Some(JAMMING_PRESSURE),
+        },
+        thermostat: spec.thermostat.unwrap_or(growth != Growth::None),
+        // The walls see a grain grow at 2λ times its rate: wall gap λ·Δd(t), Δd = 2·rate·t.
+        wall_growth: if spec.opens_gap() {
+            2.0 * spec.wall_gap_fraction()
+        } else {
+            1.0
+        },
     }
 }
 
@@ -184,7 +243,7 @@ where
         if spec.opens_gap() {
             gap_wall_fraction = Some(spec.wall_gap_fraction());
         }
-        let stage = spec.to_stage(full_size_fraction);
+        let stage = kernel_stage(spec, full_size_fraction);
         let progress = progress.unwrap_or_else(|| kernel.start_stage(&stage));
         // In a gap stage (absolute growth) every radius has gained `∫ rate dt`
         // (`Progress::grown`); the gap is reported in the units of the scene as written.
