@@ -24,7 +24,7 @@ mod spheres;
 mod stages;
 
 pub use mixture::{mixture_packing, run_mixture, MixtureOutcome, MixtureRunError};
-pub use stages::kernel_stage;
+pub use stages::{gap_opened, kernel_stage};
 
 use crate::boundary::{Boundary, CylinderContainer, PeriodicBox, WalledBox};
 use crate::io::checkpoint::{CheckpointError, CheckpointFile};

@@ -2,7 +2,7 @@
 //! addition (a `method = "rsa"` scene ends there), and the written spheres of a finished
 //! kernel (at their true sizes with the gap a gap stage opened).
 
-use super::stages::{finish, kernel_config, Placed, StagesDone};
+use super::stages::{finish, gap_opened, kernel_config, Placed, StagesDone};
 use super::{Job, RunError, SceneContainer, Seeded, ShapeRun};
 use crate::boundary::Boundary;
 use crate::io::packing::PackingStats;
@@ -92,9 +92,9 @@ impl ShapeRun for Spheres {
         drop(particles);
         let (radii, min_gap, wall_gap) = match done.gap_wall_fraction {
             // The gap stage starts at the true sizes (validation requires it) and every radius
-            // gains the same at the absolute rate; the guaranteed gap is twice the smallest gain
-            // (they differ only by rounding), and the walls saw the fraction 2λ of each gain
-            // (`Stage::wall_growth`). The true radii come from the seed, so a resumed run writes
+            // gains the same at the absolute rate; the guaranteed gap is the gap opened by the
+            // smallest gain (they differ only by rounding), and the walls kept the fraction λ
+            // of it (`Stage::wall_growth`). The true radii come from the seed, so a resumed run writes
             // the same.
             Some(fraction) => {
                 let true_radii: Vec<f64> = true_diameters.iter().map(|d| 0.5 * d).collect();
@@ -104,7 +104,7 @@ impl ShapeRun for Spheres {
                     .map(|(g, t)| g - t)
                     .fold(f64::INFINITY, f64::min)
                     .max(0.0);
-                let min_gap = 2.0 * gain;
+                let min_gap = gap_opened(gain);
                 let wall_gap = (fraction != 0.5).then_some(fraction * min_gap);
                 (true_radii, min_gap, wall_gap)
             }

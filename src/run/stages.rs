@@ -98,6 +98,15 @@ pub(super) fn kernel_config(scene: &Scene) -> KernelConfig {
     }
 }
 
+/// The gap rule of a gap stage (paper 001, Eq. 31): from their true sizes every grain grows
+/// by the same radius `grown` (`∫ rate dt` at the absolute rate, `rate·t` for a fixed rate),
+/// so the gap opened between any two grains is `Δd = 2·grown`. The one place the rule is
+/// written: a gap stage's end time and wall growth ([`kernel_stage`]), the gap reported at
+/// every barrier and the `min_gap` of the written packing all use it.
+pub fn gap_opened(grown: f64) -> f64 {
+    2.0 * grown
+}
+
 /// The kernel stage a scene's stage `spec` describes. `full_size_fraction` is the packing
 /// fraction of the particles at their true sizes (the `full_size` goal). The schema
 /// (`io::scene`) validates and describes the spec; the conversion is the runner's.
@@ -118,8 +127,9 @@ pub fn kernel_stage(spec: &StageSpec, full_size_fraction: f64) -> Stage {
         until.packing_fraction = Some(full_size_fraction);
     }
     if let (Some(gap), Some(rate)) = (u.gap, spec.rate) {
-        // Every radius gains Δd/2 at the absolute rate (Eq. 31).
-        let t = 0.5 * gap / rate;
+        // At the fixed absolute rate the gap opens at `gap_opened(rate)` per unit time (the
+        // rule is linear), so it reaches Δd at `Δd / gap_opened(rate)` (Eq. 31).
+        let t = gap / gap_opened(rate);
         until.time = Some(until.time.map_or(t, |x| x.min(t)));
     }
     // Δd maximisation ends when the grains jam; any other growing stage that jams fails
@@ -145,9 +155,11 @@ pub fn kernel_stage(spec: &StageSpec, full_size_fraction: f64) -> Stage {
             jamming_pressure: Some(JAMMING_PRESSURE),
         },
         thermostat: spec.thermostat.unwrap_or(growth != Growth::None),
-        // The walls see a grain grow at 2λ times its rate: wall gap λ·Δd(t), Δd = 2·rate·t.
+        // The walls see the fraction f of each grain's growth, so they keep f·grown from it;
+        // the wall gap is to be λ·Δd = λ·gap_opened(grown) = gap_opened(λ)·grown (the rule is
+        // linear), so f = gap_opened(λ).
         wall_growth: if spec.opens_gap() {
-            2.0 * spec.wall_gap_fraction()
+            gap_opened(spec.wall_gap_fraction())
         } else {
             1.0
         },
@@ -190,7 +202,7 @@ pub(super) struct StagesDone {
 pub(super) struct GapSample {
     /// Simulated time of the stage.
     stage_time: f64,
-    /// Gap between the grains at their true sizes: twice the radius gained.
+    /// Gap between the grains at their true sizes ([`gap_opened`] of the radius gained).
     gap: f64,
     /// Events of the stage so far.
     events: u64,
@@ -253,7 +265,7 @@ where
         let mut barrier = 0usize;
         let report = kernel.continue_stage(&stage, progress, &mut |kernel, p| {
             let mut observed = p.observed(kernel);
-            observed.gap = opens_gap.then(|| units.to_scene(2.0 * observed.grown));
+            observed.gap = opens_gap.then(|| units.to_scene(gap_opened(observed.grown)));
             on_progress(k, &observed);
             if let Some(gap) = observed.gap {
                 if barrier.is_multiple_of(stride) {
@@ -453,4 +465,50 @@ pub(super) fn finish<B: Boundary>(
         stages,
         verification,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spec(toml_text: &str) -> StageSpec {
+        toml::from_str(toml_text).expect("a stage table")
+    }
+
+    #[test]
+    fn a_gap_stage_ends_when_every_radius_has_gained_half_the_gap() {
+        // Δd = 1 at the absolute rate 0.01: each radius gains 0.5, which takes 50 time units;
+        // a wall gap of 0.25 is λ = 1/4 of Δd, so the walls see half of each grain's growth.
+        let s = spec("growth = \"absolute\"\nrate = 0.01\nuntil = { gap = 1.0 }\nwall_gap = 0.25");
+        let stage = kernel_stage(&s, 0.3);
+        assert_eq!(stage.growth, Growth::Absolute(0.01));
+        assert_eq!(stage.until.time, Some(50.0));
+        assert_eq!(stage.wall_growth, 0.5);
+        assert_eq!(gap_opened(0.5), 1.0);
+        // A time goal shorter than the gap's wins.
+        let s = spec("growth = \"absolute\"\nrate = 0.01\nuntil = { gap = 1.0, time = 20.0 }");
+        assert_eq!(kernel_stage(&s, 0.3).until.time, Some(20.0));
+        // Without a wall gap each grain keeps half the gap to the walls: they see it whole.
+        let s = spec("growth = \"absolute\"\nrate = 0.01\nuntil = { max_gap = true }");
+        let stage = kernel_stage(&s, 0.3);
+        assert_eq!(stage.wall_growth, 1.0);
+        assert_eq!(stage.until.time, None);
+        assert_eq!(stage.until.reduced_pressure, Some(JAMMING_PRESSURE));
+    }
+
+    #[test]
+    fn other_stages_see_the_walls_at_the_particles_size_and_full_size_is_a_fraction() {
+        let s = spec("growth = \"relative\"\nrate = 0.05\nuntil = { full_size = true }");
+        let stage = kernel_stage(&s, 0.42);
+        assert_eq!(stage.growth, Growth::Relative(0.05));
+        assert_eq!(stage.until.packing_fraction, Some(0.42));
+        assert_eq!(stage.wall_growth, 1.0);
+        assert!(stage.thermostat);
+        assert_eq!(stage.limits.jamming_pressure, Some(JAMMING_PRESSURE));
+        let s = spec("growth = \"none\"\nuntil = { time = 3.0 }\nmax_events = 7");
+        let stage = kernel_stage(&s, 0.42);
+        assert_eq!(stage.growth, Growth::None);
+        assert!(!stage.thermostat);
+        assert_eq!(stage.limits.events, 7);
+    }
 }
