@@ -3,7 +3,10 @@
 
 use super::stages::provenance;
 use super::SceneContainer;
-use crate::io::packing::{Packing, PackingStats, Timings};
+use crate::boundary::Boundary;
+use crate::geometry::cylinder::Shape;
+use crate::io::packing::{Packing, PackingStats, ParticleRecord, Timings};
+use crate::protocol::mixture::Rve;
 use crate::verify::{verify, Verification};
 use rand::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -35,7 +38,7 @@ pub enum MixtureRunError {
 /// `reduced_pressure` is 0 (no pressure is measured without event-driven dynamics),
 /// `events` counts RSA candidates or relaxer steps.
 pub fn mixture_packing(
-    rve: &crate::protocol::mixture::Rve,
+    rve: &Rve,
     seed: u64,
     wall_seconds: f64,
     method: &str,
@@ -60,8 +63,31 @@ pub fn mixture_packing(
             extra,
             ..PackingStats::default()
         },
-        ..Packing::new(rve.boundary.record(), rve.records())
+        ..Packing::new(rve.boundary.record(), records(rve))
     }
+}
+
+/// The packing-file records of the bodies of `rve` (centres wrapped into the box): the
+/// protocol makes bodies, the runner composes the file.
+fn records(rve: &Rve) -> Vec<ParticleRecord> {
+    rve.bodies
+        .iter()
+        .map(|b| {
+            let mut c = b.center();
+            rve.boundary.wrap(&mut c);
+            match b {
+                Shape::Sphere(s) => ParticleRecord::Sphere {
+                    center: c.into(),
+                    radius: s.radius,
+                },
+                Shape::Cylinder(cy) => ParticleRecord::Cylinder {
+                    center: c.into(),
+                    radius: cy.radius,
+                    half_axis: cy.half_axis.into(),
+                },
+            }
+        })
+        .collect()
 }
 
 /// Runs a validated mixture scene: RSA or random start + relaxer, then the independent
