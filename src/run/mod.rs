@@ -4,13 +4,16 @@
 //! monomorphised for them: a fully periodic box gets [`PeriodicBox`] (no wall code at all).
 //! The rooms of the runner, by what they run:
 //!
-//! | module | what |
-//! |---|---|
-//! | this one | the entry points, errors and outcome, the container and queue dispatch, the generic run of a particle kind ([`ShapeRun`]) |
-//! | `spheres` | sphere scenes: seeding (RSA scenes end there) and the written spheres |
-//! | [`ellipsoid`] | ellipsoid scenes: seeding with random orientations, the orientation tensor |
-//! | `stages` | the scene's stage specs as kernel stages, the stage loop (checkpoints, gap history), statistics, provenance and the verified packing |
-//! | `mixture` | sphere + cylinder mixtures (no EDMD kernel): RSA or the relaxer, the file records |
+//! - this module: the entry points, errors and outcome, the container and queue dispatch,
+//!   and the run of any particle kind ([`ShapeRun`]);
+//! - `spheres`: sphere scenes, their seeding (RSA scenes end there) and written spheres;
+//! - [`ellipsoid`]: ellipsoid scenes, seeding with random orientations, the orientation
+//!   tensor;
+//! - `stages`: the scene's stage specs as kernel stages ([`kernel_stage`], the gap rule
+//!   [`gap_opened`]), the stage loop (checkpoints, gap history), statistics, provenance and
+//!   the verified packing;
+//! - `mixture`: sphere + cylinder mixtures (no EDMD kernel), RSA or the relaxer, and their
+//!   file records.
 //!
 //! The kernel runs relative to the container's origin (`container_origin`) and in the
 //! scene's reduced lengths ([`Units`]: every length divided by `ℓ = 10^E`, exactly under

@@ -85,30 +85,30 @@ impl ShapeRun for Spheres {
         // and the verification's own index do not add to the kernel's peak memory.
         let particles = kernel.into_particles();
         let centres: Vec<Vec3> = particles.iter().map(|p| p.pos).collect();
-        let grown: Vec<f64> = particles
+        let grown_radii: Vec<f64> = particles
             .iter()
             .map(|p| p.shape.bounding_radius(0.0))
             .collect();
         drop(particles);
-        let (radii, min_gap, wall_gap) = match done.gap_wall_fraction {
+        let (radii, min_gap, wall_gap) = match done.wall_gap_fraction {
             // The gap stage starts at the true sizes (validation requires it) and every radius
-            // gains the same at the absolute rate; the guaranteed gap is the gap opened by the
-            // smallest gain (they differ only by rounding), and the walls kept the fraction λ
-            // of it (`Stage::wall_growth`). The true radii come from the seed, so a resumed run writes
-            // the same.
+            // grows by the same at the absolute rate; the guaranteed gap is the gap opened by
+            // the smallest growth (they differ only by rounding), and the walls kept the
+            // fraction λ of it (`Stage::wall_growth`). The true radii come from the seed, so a
+            // resumed run writes the same.
             Some(fraction) => {
                 let true_radii: Vec<f64> = true_diameters.iter().map(|d| 0.5 * d).collect();
-                let gain = grown
+                let grown = grown_radii
                     .iter()
                     .zip(&true_radii)
                     .map(|(g, t)| g - t)
                     .fold(f64::INFINITY, f64::min)
                     .max(0.0);
-                let min_gap = gap_opened(gain);
+                let min_gap = gap_opened(grown);
                 let wall_gap = (fraction != 0.5).then_some(fraction * min_gap);
                 (true_radii, min_gap, wall_gap)
             }
-            None => (grown, 0.0, None),
+            None => (grown_radii, 0.0, None),
         };
         let placed = Placed::spheres(original, centres, &radii, min_gap, wall_gap);
         let extra = if done.gap_history.is_empty() {

@@ -1,7 +1,8 @@
 //! The stages of an EDMD run and what they leave: the scene's stage specs as kernel stages
-//! ([`kernel_stage`]), the stage loop over them (with checkpoints at barriers and the gap history of a gap stage), the kernel
-//! settings of a scene, a resumed kernel, the run's statistics and provenance, and the
-//! packing in the scene's units and frame, checked independently ([`finish`]).
+//! ([`kernel_stage`], with the gap rule [`gap_opened`]), the stage loop over them (with
+//! checkpoints at barriers and the gap history of a gap stage), the kernel settings of a
+//! scene, a resumed kernel, the run's statistics and provenance, and the packing in the
+//! scene's units and frame, checked independently ([`finish`]).
 
 use super::{container_origin, CheckpointPlan, Job, RunError, RunOutcome, SceneContainer};
 use crate::boundary::Boundary;
@@ -191,7 +192,8 @@ impl StagesFrom {
 /// The stages of a run, and the wall gap fraction λ of the gap stage if one ran.
 pub(super) struct StagesDone {
     pub(super) reports: Vec<StageReport>,
-    pub(super) gap_wall_fraction: Option<f64>,
+    /// `StageSpec::wall_gap_fraction` of the gap stage, if one ran.
+    pub(super) wall_gap_fraction: Option<f64>,
     /// The gap Δd over time in a gap stage (paper 001, Fig. 10), at most
     /// [`GAP_HISTORY_POINTS`] barriers, evenly thinned; from the resume on after a restart.
     pub(super) gap_history: Vec<GapSample>,
@@ -247,13 +249,13 @@ where
         progress: mut resumed,
         mut reports,
     } = from;
-    let mut gap_wall_fraction = None;
+    let mut wall_gap_fraction = None;
     let mut gap_history: Vec<GapSample> = Vec::new();
     for (k, spec) in scene.stages.iter().enumerate().skip(first) {
         // A resumed stage continues where its checkpoint was taken.
         let progress = resumed.take();
         if spec.opens_gap() {
-            gap_wall_fraction = Some(spec.wall_gap_fraction());
+            wall_gap_fraction = Some(spec.wall_gap_fraction());
         }
         let stage = kernel_stage(spec, full_size_fraction);
         let progress = progress.unwrap_or_else(|| kernel.start_stage(&stage));
@@ -320,7 +322,7 @@ where
     }
     Ok(StagesDone {
         reports,
-        gap_wall_fraction,
+        wall_gap_fraction,
         gap_history,
     })
 }
