@@ -5,7 +5,7 @@
 //! The rooms of the runner, by what they run:
 //!
 //! - this module: the entry points, errors and outcome, the container and queue dispatch,
-//!   and the run of any particle kind ([`ShapeRun`]);
+//!   and the run of any particle kind (`ShapeRun`);
 //! - `spheres`: sphere scenes, their seeding (RSA scenes end there) and written spheres;
 //! - [`ellipsoid`]: ellipsoid scenes, seeding with random orientations, the orientation
 //!   tensor;
