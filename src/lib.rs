@@ -93,6 +93,7 @@ pub mod queue;
 pub mod run;
 pub mod shape;
 pub mod spatial;
+pub mod tuning;
 pub mod verify;
 
 /// Hints the processor to load the cache lines of `value` (a no-op where there is no

@@ -239,7 +239,7 @@ fn check_scene(data: &[u8]) -> Result<(), TestCaseError> {
     let volume = scene.container_volume();
     prop_assert!(volume.is_finite() && volume > 0.0, "volume {}", volume);
     for stage in &scene.stages {
-        let _ = stage.to_stage(1.0);
+        let _ = densepack::run::kernel_stage(stage, 1.0);
     }
     if let Some(count) = scene.particle_count() {
         prop_assert!(count <= MAX_PARTICLES);

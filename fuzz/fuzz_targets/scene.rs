@@ -19,7 +19,7 @@ fuzz_target!(|data: &[u8]| {
     let volume = scene.container_volume();
     assert!(volume.is_finite() && volume > 0.0);
     for stage in &scene.stages {
-        let _ = stage.to_stage(1.0);
+        let _ = densepack::run::kernel_stage(stage, 1.0);
     }
     // Seeding sizes, when few enough to list cheaply (grading curves draw theirs).
     if let Some(count) = scene.particle_count() {

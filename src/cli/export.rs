@@ -159,6 +159,16 @@ pub fn run(args: &ExportArgs) -> ExitCode {
                 mesh_size: args.mesh_size,
                 shrink: args.shrink,
             },
+            &|surfaces| {
+                // The exporter builds the surfaces; the independent checker judges them.
+                let v = densepack::verify::verify(surfaces);
+                gmsh::SurfaceCheck {
+                    violation_count: v.violation_count,
+                    first_violation: v.violations.into_iter().next(),
+                    min_pair_gap: v.min_pair_gap,
+                    min_wall_gap: v.min_wall_gap,
+                }
+            },
             out,
         )
         .map(|report| {

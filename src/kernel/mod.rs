@@ -80,6 +80,7 @@ use crate::shape::{
     MassRule, Vec3,
 };
 use crate::spatial::{CellGrid, MAX_LEVELS};
+use crate::tuning::{DEFAULT_EVENTS_PER_INTERVAL, DEFAULT_NEIGHBOUR_SKIN, DEFAULT_TEMPERATURE};
 use rand::Rng;
 use rand_distr::StandardNormal;
 
@@ -154,9 +155,9 @@ impl Default for KernelConfig {
     fn default() -> Self {
         Self {
             mass: MassRule::Equal,
-            temperature: 1.0,
-            events_per_particle_per_interval: 4.0,
-            neighbour_skin: 0.1,
+            temperature: DEFAULT_TEMPERATURE,
+            events_per_particle_per_interval: DEFAULT_EVENTS_PER_INTERVAL,
+            neighbour_skin: DEFAULT_NEIGHBOUR_SKIN,
         }
     }
 }
@@ -218,10 +219,9 @@ pub(crate) const NEIGHBOURS_INLINE: usize = 14;
 /// A particle's neighbour list (indices of the particles whose list spheres overlap its own).
 pub(crate) type NeighbourList = smallvec::SmallVec<[u32; NEIGHBOURS_INLINE]>;
 
-/// Largest neighbour-list skin the kernel adapts to. Thicker skins lengthen the lists (their
-/// memory grows with the cube of `1 + skin`) for little gain: in the φ = 0.5 fluid a fixed
-/// skin of 0.4 was as fast as any.
-pub const MAX_SKIN: f64 = 0.5;
+/// Largest neighbour-list skin the kernel adapts to (defined in the leaf module
+/// [`crate::tuning`], where the scene schema validates against it too).
+pub use crate::tuning::MAX_SKIN;
 
 /// Neighbours screened per block of a prediction pass: one bit each in a `u64` marks those
 /// that pass the screen ([`Edmd::predict_pairs`]).

@@ -253,8 +253,8 @@ pub struct Progress {
     /// has gained.
     pub grown: f64,
     /// The gap Δd between the grains at their true sizes that a gap stage has opened so far
-    /// (twice the radius each grain gained, paper 001 Eq. 31); `None` outside gap stages.
-    /// The kernel does not know which stages open gaps: `crate::run` fills it in.
+    /// (`crate::run::gap_opened` of [`Progress::grown`], paper 001 Eq. 31); `None` outside
+    /// gap stages. The kernel does not know which stages open gaps: `crate::run` fills it in.
     pub gap: Option<f64>,
 }
 

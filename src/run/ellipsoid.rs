@@ -3,10 +3,8 @@
 //! and resume as for spheres: the snapshot holds every orientation and angular velocity), the
 //! orientation tensor, and the independent verification.
 
-use super::{
-    dispatch_box, kernel_config, Job, Placed, RunError, RunOutcome, SceneContainer, Seeded,
-    ShapeRun, StagesDone,
-};
+use super::stages::{kernel_config, Placed, StagesDone};
+use super::{dispatch_box, Job, RunError, RunOutcome, SceneContainer, Seeded, ShapeRun};
 use crate::boundary::Boundary;
 use crate::io::packing::ParticleRecord;
 use crate::io::scene::{ContainerSpec, EllipsoidSpec, Scene};

@@ -241,9 +241,29 @@ fn face_offsets(
     (offsets, clearance)
 }
 
+/// What the caller's check of the exported surfaces found. The exporter builds those
+/// surfaces (the shrunk particles, or their shells around them, as a packing that claims no
+/// gap) and hands them to the check [`write_geo`] is given: it has no overlap checker of its
+/// own (the CLI passes `crate::verify`'s).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SurfaceCheck {
+    /// Surfaces that overlap each other or leave the container.
+    pub violation_count: usize,
+    /// The first of them, for the message.
+    pub first_violation: Option<String>,
+    /// Narrowest gap between two surfaces (`None` without neighbours).
+    pub min_pair_gap: Option<f64>,
+    /// Narrowest gap between a surface and a wall (`None` without walls).
+    pub min_wall_gap: Option<f64>,
+}
+
 /// Checks the options against the packing: shrink in range, shells that neither overlap each
-/// other nor leave the container (checked by [`crate::verify`] on the inflated particles).
-fn check(packing: &Packing, opts: &GmshOptions) -> Result<GmshReport, ExportError> {
+/// other nor leave the container (as `check_surfaces` finds them on the inflated particles).
+fn check(
+    packing: &Packing,
+    opts: &GmshOptions,
+    check_surfaces: &dyn Fn(&Packing) -> SurfaceCheck,
+) -> Result<GmshReport, ExportError> {
     if !(opts.shrink >= 0.0 && opts.shrink < 1.0) {
         return Err(ExportError::Invalid {
             option: "--shrink",
@@ -275,15 +295,15 @@ fn check(packing: &Packing, opts: &GmshOptions) -> Result<GmshReport, ExportErro
         let (_, r) = bounding_sphere(p);
         *p = scaled(p, ((1.0 - opts.shrink) * r + shell) / r);
     }
-    let v = crate::verify::verify(&outer);
-    if !v.ok() {
+    let v = check_surfaces(&outer);
+    if v.violation_count > 0 {
         return Err(ExportError::Invalid {
             option: "--interface",
             message: format!(
                 "shells of thickness {shell} overlap or leave the container ({} violations, \
                  first: {}); use a thinner shell or a larger --shrink",
                 v.violation_count,
-                v.violations.first().map_or("", String::as_str)
+                v.first_violation.as_deref().unwrap_or("")
             ),
         });
     }
@@ -317,13 +337,16 @@ pub struct GmshReport {
     pub narrowest_gap: Option<f64>,
 }
 
-/// Writes the `.geo` script for `packing` to `path`.
+/// Writes the `.geo` script for `packing` to `path`, after `check_surfaces` has found the
+/// exported surfaces (shrunk particles or their shells) free of overlaps and inside the
+/// container ([`SurfaceCheck`]).
 pub fn write_geo(
     packing: &Packing,
     opts: &GmshOptions,
+    check_surfaces: &dyn Fn(&Packing) -> SurfaceCheck,
     path: &std::path::Path,
 ) -> Result<GmshReport, ExportError> {
-    let report = check(packing, opts)?;
+    let report = check(packing, opts, check_surfaces)?;
     super::write_file(path, |w| geo(packing, opts, report.mesh_size, w))?;
     Ok(report)
 }
@@ -539,6 +562,44 @@ fn geo(
 mod tests {
     use super::*;
 
+    /// Spheres in a walled box, every pair and wall measured exactly: the check the tests
+    /// give the exporter (independent of `crate::verify`).
+    fn spheres_in_walled_box(packing: &Packing) -> SurfaceCheck {
+        let ContainerRecord::Box { min, max, .. } = packing.container else {
+            panic!("a box");
+        };
+        let spheres: Vec<([f64; 3], f64)> = packing
+            .particles
+            .iter()
+            .map(|p| match *p {
+                ParticleRecord::Sphere { center, radius } => (center, radius),
+                _ => panic!("spheres"),
+            })
+            .collect();
+        let mut out = SurfaceCheck::default();
+        let mut note = |gap: f64, slot: &mut Option<f64>, what: String| {
+            *slot = Some(slot.map_or(gap, |m: f64| m.min(gap)));
+            if gap < 0.0 {
+                out.violation_count += 1;
+                out.first_violation.get_or_insert(what);
+            }
+        };
+        let (mut pair, mut wall) = (None, None);
+        for (i, &(c, r)) in spheres.iter().enumerate() {
+            for k in 0..3 {
+                note(c[k] - r - min[k], &mut wall, format!("{i} leaves the box"));
+                note(max[k] - c[k] - r, &mut wall, format!("{i} leaves the box"));
+            }
+            for (j, &(d, s)) in spheres.iter().enumerate().skip(i + 1) {
+                let dist = (0..3).map(|k| (c[k] - d[k]).powi(2)).sum::<f64>().sqrt();
+                note(dist - r - s, &mut pair, format!("{i} and {j} overlap"));
+            }
+        }
+        out.min_pair_gap = pair;
+        out.min_wall_gap = wall;
+        out
+    }
+
     #[test]
     fn the_narrowest_gap_is_measured_after_shrinking_and_overlapping_shells_are_refused() {
         // Radii 1 and 2, centres 3.5 apart in a walled 10-cube. Shrunk by 10 %: radii 0.9
@@ -557,7 +618,7 @@ mod tests {
             shrink: 0.1,
             ..Default::default()
         };
-        let report = check(&packing, &opts).unwrap();
+        let report = check(&packing, &opts, &spheres_in_walled_box).unwrap();
         assert!((report.narrowest_gap.unwrap() - 0.8).abs() < 1e-12);
         assert!((report.mesh_size - 0.5 * 1.5 * 0.9).abs() < 1e-12);
         // Shells of 0.3 leave 0.8 − 0.6 = 0.2 between them; 0.5 would overlap.
@@ -565,9 +626,9 @@ mod tests {
             interface_thickness: Some(t),
             ..opts
         };
-        let report = check(&packing, &shells(0.3)).unwrap();
+        let report = check(&packing, &shells(0.3), &spheres_in_walled_box).unwrap();
         assert!((report.narrowest_gap.unwrap() - 0.2).abs() < 1e-12);
-        assert!(check(&packing, &shells(0.5)).is_err());
+        assert!(check(&packing, &shells(0.5), &spheres_in_walled_box).is_err());
     }
 
     #[test]

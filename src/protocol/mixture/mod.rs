@@ -28,7 +28,6 @@ pub mod rsa;
 
 use crate::boundary::{Boundary, PeriodicBox};
 use crate::geometry::cylinder::{overlaps, Cylinder, Shape, Sphere};
-use crate::io::packing::ParticleRecord;
 use crate::shape::Vec3;
 use crate::spatial::CellGrid;
 use rand::Rng;
@@ -335,28 +334,6 @@ impl Rve {
             }
         }
         (s / v, c / v)
-    }
-
-    /// The packing-file records of the bodies (centres wrapped into the box).
-    pub fn records(&self) -> Vec<ParticleRecord> {
-        self.bodies
-            .iter()
-            .map(|b| {
-                let mut c = b.center();
-                self.boundary.wrap(&mut c);
-                match b {
-                    Shape::Sphere(s) => ParticleRecord::Sphere {
-                        center: c.into(),
-                        radius: s.radius,
-                    },
-                    Shape::Cylinder(cy) => ParticleRecord::Cylinder {
-                        center: c.into(),
-                        radius: cy.radius,
-                        half_axis: cy.half_axis.into(),
-                    },
-                }
-            })
-            .collect()
     }
 }
 

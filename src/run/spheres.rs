@@ -1,0 +1,121 @@
+//! Sphere scenes (those without `[particles.ellipsoid]`): seeding by random sequential
+//! addition (a `method = "rsa"` scene ends there), and the written spheres of a finished
+//! kernel (at their true sizes with the gap a gap stage opened).
+
+use super::stages::{finish, gap_opened, kernel_config, Placed, StagesDone};
+use super::{Job, RunError, SceneContainer, Seeded, ShapeRun};
+use crate::boundary::Boundary;
+use crate::io::packing::PackingStats;
+use crate::io::scene::{Method, Scene};
+use crate::kernel::Edmd;
+use crate::protocol::rsa::rsa_spheres;
+use crate::queue::EventQueue;
+use crate::shape::{Collidable, Sphere, Vec3};
+use rand_xoshiro::Xoshiro256PlusPlus;
+
+/// Spheres ([`Sphere`]): the kinds of scene without `[particles.ellipsoid]`.
+pub(super) struct Spheres;
+
+impl ShapeRun for Spheres {
+    type Shape = Sphere;
+
+    fn seed<B: Boundary + SceneContainer, Q: EventQueue>(
+        scene: &Scene,
+        job: &Job,
+        true_diameters: &[f64],
+        boundary: B,
+        rng: &mut Xoshiro256PlusPlus,
+        started: std::time::Instant,
+    ) -> Result<Seeded<Sphere, B, Q>, RunError> {
+        let scale = scene.seed_scale(true_diameters);
+        let radii: Vec<f64> = true_diameters.iter().map(|d| 0.5 * scale * d).collect();
+        let (rsa_gap, rsa_wall_gap) = match scene.method {
+            Method::Rsa => {
+                let gap = scene.particles.gap.unwrap_or(0.0);
+                (gap, scene.particles.wall_gap.unwrap_or(0.5 * gap))
+            }
+            Method::Edmd => (0.0, 0.0),
+        };
+        let centres = rsa_spheres(
+            &boundary,
+            &radii,
+            rsa_gap,
+            rsa_wall_gap,
+            scene.particles.rsa_max_failures,
+            rng,
+        )?;
+        let seeding_seconds = started.elapsed().as_secs_f64();
+        if scene.method == Method::Rsa {
+            let placed = Placed::spheres(
+                &boundary,
+                centres,
+                &radii,
+                rsa_gap,
+                scene.particles.wall_gap,
+            );
+            let stats = PackingStats {
+                wall_seconds: started.elapsed().as_secs_f64(),
+                stop_reason: "rsa_complete".into(),
+                ..PackingStats::default()
+            };
+            let container = boundary.record();
+            return finish(
+                job.scene,
+                container,
+                &boundary,
+                placed,
+                stats,
+                Vec::new(),
+                seeding_seconds,
+            )
+            .map(Seeded::Finished);
+        }
+        let shapes = radii.iter().map(|&r| Sphere::new(r)).collect();
+        let kernel = Edmd::new(centres, shapes, boundary, kernel_config(scene), rng);
+        Ok(Seeded::Kernel(kernel, seeding_seconds))
+    }
+
+    fn packing<B: Boundary, Q: EventQueue>(
+        kernel: Edmd<Sphere, B, Q>,
+        original: &B,
+        true_diameters: &[f64],
+        done: &StagesDone,
+    ) -> (Placed, Vec<(String, serde_json::Value)>) {
+        // The kernel's other arrays are freed before the output is built, so that the output
+        // and the verification's own index do not add to the kernel's peak memory.
+        let particles = kernel.into_particles();
+        let centres: Vec<Vec3> = particles.iter().map(|p| p.pos).collect();
+        let grown_radii: Vec<f64> = particles
+            .iter()
+            .map(|p| p.shape.bounding_radius(0.0))
+            .collect();
+        drop(particles);
+        let (radii, min_gap, wall_gap) = match done.wall_gap_fraction {
+            // The gap stage starts at the true sizes (validation requires it) and every radius
+            // grows by the same at the absolute rate; the guaranteed gap is the gap opened by
+            // the smallest growth (they differ only by rounding), and the walls kept the
+            // fraction λ of it (`Stage::wall_growth`). The true radii come from the seed, so a
+            // resumed run writes the same.
+            Some(fraction) => {
+                let true_radii: Vec<f64> = true_diameters.iter().map(|d| 0.5 * d).collect();
+                let grown = grown_radii
+                    .iter()
+                    .zip(&true_radii)
+                    .map(|(g, t)| g - t)
+                    .fold(f64::INFINITY, f64::min)
+                    .max(0.0);
+                let min_gap = gap_opened(grown);
+                let wall_gap = (fraction != 0.5).then_some(fraction * min_gap);
+                (true_radii, min_gap, wall_gap)
+            }
+            None => (grown_radii, 0.0, None),
+        };
+        let placed = Placed::spheres(original, centres, &radii, min_gap, wall_gap);
+        let extra = if done.gap_history.is_empty() {
+            Vec::new()
+        } else {
+            vec![("gap_history".into(), serde_json::json!(done.gap_history))]
+        };
+        (placed, extra)
+    }
+}
