@@ -122,7 +122,7 @@ fn main() -> ExitCode {
 fn command(cli: Cli) -> ExitCode {
     match cli.command {
         None => {
-            outln!("densepack: running the embedded default scene (10 000 equal spheres, periodic, grown to jamming)");
+            outln!("densepack: running the embedded default scene (10 000 equal spheres, periodic, grown to reduced pressure 1e12)");
             let scene = Scene::from_toml(DEFAULT_SCENE).expect("the embedded scene is valid");
             let start = |on_stage: &mut OnStage, on_progress: &mut OnProgress| {
                 run_scene_observed(&scene, on_stage, on_progress)
@@ -326,6 +326,11 @@ fn run(
                     s.stop_reason,
                     outcome.verification.min_pair_gap_relative.unwrap_or(f64::NAN),
                 );
+                if s.stop_reason == densepack::kernel::StopReason::PressureReached.as_str() {
+                    if let Some(line) = cli::analyse::run_summary(&outcome.packing) {
+                        outln!("{line}");
+                    }
+                }
             }
             if let Some(path) = out {
                 if let Err(e) = outcome.packing.write(&path) {

@@ -66,7 +66,7 @@ fn an_adaptive_stage_applies_the_law_at_every_barrier_and_reports_the_radius_gai
     };
     let mut seen: Vec<Progress> = Vec::new();
     let report = kernel.run_stage_observed(&stage, &mut |p| seen.push(p.clone()));
-    assert_eq!(report.stop_reason, StopReason::Jammed);
+    assert_eq!(report.stop_reason, StopReason::PressureReached);
     assert!(seen.len() > 10);
     // The rate of each interval is the law at the pressure of the interval before it.
     for w in seen.windows(2) {
@@ -111,7 +111,7 @@ fn a_scene_with_an_adaptive_rate_jams_and_rejects_goals_that_need_a_fixed_rate()
         )
     };
     let outcome = common::run_toml(&scene("reduced_pressure = 1e9"));
-    assert_eq!(outcome.packing.stats.stop_reason, "jammed");
+    assert_eq!(outcome.packing.stats.stop_reason, "pressure_reached");
     assert_no_overlap(&outcome.packing);
     let refused = densepack::io::scene::Scene::from_toml(&scene("packing_fraction = 0.6"));
     let message = refused.unwrap_err().to_string();

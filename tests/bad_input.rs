@@ -539,7 +539,7 @@ const PACKING: &str = r#"{"format": "densepack-packing", "version": 1,
                {"type": "sphere", "center": [4, 5, 5], "radius": 0.5}],
  "min_gap": 0.0, "seed": 1,
  "stats": {"packing_fraction": 0.001, "reduced_pressure": 1.0, "events": 0, "collisions": 0,
-           "wall_seconds": 0.0, "stop_reason": "jammed"}}"#;
+           "wall_seconds": 0.0, "stop_reason": "pressure_reached"}}"#;
 
 /// A small scene that runs in milliseconds.
 const QUICK: &str = "seed = 1\n[container]\ntype = \"box\"\nsize = [10.0, 10.0, 10.0]\n\
@@ -1328,7 +1328,7 @@ fn bad_checkpoint_options_exit_2() {
 fn malformed_packings_exit_2() {
     let dir = temp_dir("packings");
     let good_container = r#""container": {"type": "box", "min": [0,0,0], "max": [10,10,10], "periodic": [true,true,true]}"#;
-    let stats = r#""stats": {"packing_fraction": 0.0, "reduced_pressure": 1.0, "events": 0, "collisions": 0, "wall_seconds": 0.0, "stop_reason": "jammed"}"#;
+    let stats = r#""stats": {"packing_fraction": 0.0, "reduced_pressure": 1.0, "events": 0, "collisions": 0, "wall_seconds": 0.0, "stop_reason": "pressure_reached"}"#;
     let cases: Vec<(&str, String, &str)> = vec![
         ("empty file", String::new(), "EOF"),
         ("not JSON", "particles: 3".into(), "expected value"),

@@ -29,7 +29,7 @@ fn walls_scene_runs_writes_a_packing_and_verify_accepts_it() {
     let packing = densepack::io::packing::Packing::read(&out).unwrap();
     assert_eq!(packing.format, "densepack-packing");
     assert_eq!(packing.particles.len(), 8);
-    assert_eq!(packing.stats.stop_reason, "jammed");
+    assert_eq!(packing.stats.stop_reason, "pressure_reached");
     common::assert_no_overlap(&packing);
     let verify = densepack(&["verify", out.to_str().unwrap()]);
     assert!(verify.status.success());
@@ -58,7 +58,7 @@ fn verify_rejects_an_overlapping_packing_with_exit_code_1() {
                           {"type": "sphere", "center": [9.5, 5, 5], "radius": 0.5}],
             "min_gap": 0.0, "seed": 1,
             "stats": {"packing_fraction": 0.0, "reduced_pressure": 1.0, "events": 0,
-                      "collisions": 0, "wall_seconds": 0.0, "stop_reason": "jammed"}}"#,
+                      "collisions": 0, "wall_seconds": 0.0, "stop_reason": "pressure_reached"}}"#,
     )
     .unwrap();
     let verify = densepack(&["verify", path.to_str().unwrap()]);

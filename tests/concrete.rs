@@ -134,7 +134,7 @@ until = { max_gap = true }
     let packing = &outcome.packing;
     let gap = packing.min_gap;
     assert!(gap > 0.5, "Δd_max = {gap}");
-    assert_eq!(packing.stats.stop_reason, "jammed");
+    assert_eq!(packing.stats.stop_reason, "pressure_reached");
     // At jamming the inflated spheres touch: the smallest surface gap is Δd_max itself (the
     // kernel stops at reduced pressure 1e12, so contacts are closed to ~1e-11 of a diameter).
     let smallest = assert_gap_and_containment(packing);
@@ -324,7 +324,7 @@ fn gap_maximisation_with_a_wall_gap_fraction_meets_the_exact_cubes() {
         let case = format!("{count} spheres, λ = {lambda}: Δd_max = {gap}, exact {exact}");
         // Jammed at reduced pressure 1e12: contacts closed to ~1e-12 of a diameter.
         assert!((gap - exact).abs() < 1e-9 * exact, "{case}");
-        assert_eq!(packing.stats.stop_reason, "jammed", "{case}");
+        assert_eq!(packing.stats.stop_reason, "pressure_reached", "{case}");
         let expected_wall_gap = (lambda != 0.5).then_some(lambda * gap);
         assert_eq!(packing.wall_gap, expected_wall_gap, "{case}");
         assert_gap_and_containment(&packing);

@@ -163,7 +163,7 @@ fn fast_compression_jams_near_random_close_packing_and_slower_goes_denser() {
     let slow = run_toml(&jam_scene(0.005, 3));
     let (phi_fast, phi_slow) = (recomputed_phi(&fast.packing), recomputed_phi(&slow.packing));
     eprintln!("jammed φ: fast {phi_fast:.5}, 10× slower {phi_slow:.5}");
-    assert_eq!(fast.packing.stats.stop_reason, "jammed");
+    assert_eq!(fast.packing.stats.stop_reason, "pressure_reached");
     assert!(
         (0.630..=0.650).contains(&phi_fast),
         "fast growth jammed at {phi_fast}"
@@ -276,7 +276,7 @@ until = { reduced_pressure = 1e10 }
 "#,
     );
     let stats = &out.packing.stats;
-    assert_eq!(stats.stop_reason, "jammed");
+    assert_eq!(stats.stop_reason, "pressure_reached");
     // Absolute growth adds the same length to every radius: the size ratio shrinks below 2.
     let radii: Vec<f64> = out
         .packing
@@ -338,7 +338,7 @@ until = { reduced_pressure = 1e8 }
 "#,
     );
     let stats = &out.packing.stats;
-    assert_eq!(stats.stop_reason, "jammed");
+    assert_eq!(stats.stop_reason, "pressure_reached");
     // Polydisperse mixtures pack denser than equal spheres (φ_RCP ≈ 0.64).
     let phi = recomputed_phi(&out.packing);
     assert!(phi > 0.68, "φ = {phi}");

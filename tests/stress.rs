@@ -328,7 +328,7 @@ fn jam_row<B: Boundary + SceneContainer>(
     let stages = [equilibrate(2.0), grow_to_jamming(0.05), equilibrate(rattle)];
     let (row, _) = run_case(name, kernel, &stages);
     assert_eq!(row.stops[0], StopReason::CollisionsReached, "{name}");
-    assert_eq!(row.stops[1], StopReason::Jammed, "{name}");
+    assert_eq!(row.stops[1], StopReason::PressureReached, "{name}");
     assert_eq!(row.stops[2], StopReason::CollisionsReached, "{name}");
     assert!(
         row.phi > jam_from && row.phi < 0.74049,
@@ -373,7 +373,7 @@ fn jamming_wide_size_ratios() {
     let kernel = seeded(cube(edge), &diameters, 3, 1.0);
     let name = format!("jam, periodic, ratio {ratio}");
     let (row, _) = run_case(&name, kernel, &[grow_to_jamming(0.05), equilibrate(50.0)]);
-    assert_eq!(row.stops[0], StopReason::Jammed);
+    assert_eq!(row.stops[0], StopReason::PressureReached);
 
     // Ratio 4 with equal volumes of both sizes, walled.
     let n_small = size(960, 12_800);
@@ -391,7 +391,7 @@ fn jamming_wide_size_ratios() {
         kernel,
         &[grow_to_jamming(0.05)],
     );
-    assert_eq!(row.stops[0], StopReason::Jammed);
+    assert_eq!(row.stops[0], StopReason::PressureReached);
 }
 
 /// Lattice positions `spacing·(i + offset)` for `k³` spheres.
@@ -420,7 +420,7 @@ fn degenerate_starts() {
         kernel,
         &[equilibrate(20.0), grow_to_jamming(0.05)],
     );
-    assert_eq!(row.stops[1], StopReason::Jammed);
+    assert_eq!(row.stops[1], StopReason::PressureReached);
 
     // Touching neighbours and walls everywhere: the lattice fills the walled box exactly, so
     // every row of spheres is rigid between two walls and its momentum bounces through it
@@ -447,7 +447,7 @@ fn degenerate_starts() {
         touching,
         &[equilibrate(50.0), grow_to_jamming(0.05)],
     );
-    assert_eq!(row.stops[1], StopReason::Jammed);
+    assert_eq!(row.stops[1], StopReason::PressureReached);
 
     // Spheres in all 8 corners touching three walls, plus touching pairs in between.
     let edge = 6.0;
@@ -466,7 +466,7 @@ fn degenerate_starts() {
         corners,
         &[equilibrate(100.0), grow_to_jamming(0.05)],
     );
-    assert_eq!(row.stops[1], StopReason::Jammed);
+    assert_eq!(row.stops[1], StopReason::PressureReached);
 
     // At rest: only growth brings spheres into contact; the thermostat then has energy to
     // scale.
@@ -476,7 +476,7 @@ fn degenerate_starts() {
     let mut at_rest = seeded(cube(edge), &vec![d; n], 8, 1.0);
     at_rest.set_velocities(|_| Vec3::zeros());
     let (row, _) = run_case("at rest, grow", at_rest, &[grow_to_jamming(0.05)]);
-    assert_eq!(row.stops[0], StopReason::Jammed);
+    assert_eq!(row.stops[0], StopReason::PressureReached);
 
     // At rest without growth: nothing ever happens, and the stage says so instead of
     // waiting forever.
@@ -553,7 +553,7 @@ fn scale_covariance() {
             reference.phi
         );
         assert!(common >= 2, "scale {s}: the trajectories part at once");
-        assert_eq!(row.stops[0], StopReason::Jammed);
+        assert_eq!(row.stops[0], StopReason::PressureReached);
         assert!(
             (row.phi - reference.phi).abs() < 0.01,
             "scale {s}: jammed at {} vs {}",

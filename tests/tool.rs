@@ -31,7 +31,7 @@ fn init_spheres_writes_a_scene_that_runs_with_json_progress_and_provenance() {
         .collect();
     let stages: Vec<&serde_json::Value> = lines.iter().filter(|l| l["type"] == "stage").collect();
     assert_eq!(stages.len(), 1);
-    assert_eq!(stages[0]["report"]["stop_reason"], "jammed");
+    assert_eq!(stages[0]["report"]["stop_reason"], "pressure_reached");
     for l in lines.iter().filter(|l| l["type"] == "progress") {
         let phi = l["packing_fraction"].as_f64().unwrap();
         assert!((0.3 - 1e-9..0.75).contains(&phi), "{l}");

@@ -34,6 +34,47 @@ pub struct AnalyseArgs {
     pub json: bool,
 }
 
+/// Most particles whose contact network `densepack run` counts after a pressure stop: the
+/// count (no LP) is linear in N, a fraction of a second below this size.
+const RUN_SUMMARY_MAX_PARTICLES: usize = 200_000;
+
+/// One line for `densepack run` after a stage stopped at its pressure goal: the contact
+/// network at the default cut-off (rattlers, backbone contact number against the isostatic
+/// one), because a pressure stop alone does not make a packing jammed. `None` for mixtures
+/// with cylinders; larger packings get the advice to run `analyse`.
+pub fn run_summary(packing: &Packing) -> Option<String> {
+    if packing.particles.len() > RUN_SUMMARY_MAX_PARTICLES {
+        return Some(format!(
+            "contact network: not counted above {RUN_SUMMARY_MAX_PARTICLES} particles; \
+             `densepack analyse` judges whether the packing is jammed"
+        ));
+    }
+    let r = jamming_report(packing, DEFAULT_CUTOFF, false, 0, 0.0).ok()?;
+    let row = &r.at_cutoff;
+    Some(
+        match (row.backbone_mean_contacts, row.constraints_per_freedom) {
+            (Some(z), Some(per)) => format!(
+            "contact network at cut-off {:e}: rattlers {:.2} %, backbone Z {z:.4} (isostatic {}), \
+             contacts per freedom {per:.4}{}; `densepack analyse` adds the LP certificate",
+            r.cutoff,
+            100.0 * row.rattler_fraction,
+            r.isostatic_contacts,
+            // Hypostatic ellipsoid packings can be jammed (curvature), sphere packings not.
+            if per < 1.0 && r.ellipsoids == 0 {
+                " (hypostatic: not jammed)"
+            } else {
+                ""
+            },
+        ),
+            _ => format!(
+                "contact network at cut-off {:e}: every particle is a rattler, no rigid backbone: \
+             NOT jammed (grow more slowly near the end, see `adaptive` in docs/scenes.md)",
+                r.cutoff
+            ),
+        },
+    )
+}
+
 /// Runs `analyse`: exit 0 with the report, 2 on an unreadable packing or a bad option.
 pub fn run(args: &AnalyseArgs) -> ExitCode {
     let packing = match Packing::read(&args.packing) {

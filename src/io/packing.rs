@@ -8,7 +8,7 @@
 //!                 "half_axis": [0.0, 0.0, 1.5]}],
 //!  "min_gap": 0.0, "seed": 42,   // optional "wall_gap" (default min_gap / 2)
 //!  "stats": {"packing_fraction": 0.64, "reduced_pressure": 1e12, "events": 1, "collisions": 1,
-//!            "wall_seconds": 0.1, "stop_reason": "jammed"}}
+//!            "wall_seconds": 0.1, "stop_reason": "pressure_reached"}}
 //! ```
 //! Floats are written with full round-trip precision (shortest representation that parses
 //! back to the same `f64`); periodic centres are wrapped into the box.

@@ -123,8 +123,11 @@ pub struct Stage {
 pub enum StopReason {
     /// The requested packing fraction was reached.
     PackingFractionReached,
-    /// The reduced pressure passed its threshold: jammed.
-    Jammed,
+    /// The reduced pressure passed the stage's goal (`until.reduced_pressure`). Whether the
+    /// packing is jammed is judged from its contact network (`crate::analysis`), not by
+    /// this stop.
+    #[serde(alias = "jammed")]
+    PressureReached,
     /// The requested simulated time passed.
     TimeReached,
     /// The requested number of collisions per particle was processed.
@@ -148,7 +151,7 @@ impl StopReason {
         matches!(
             self,
             Self::PackingFractionReached
-                | Self::Jammed
+                | Self::PressureReached
                 | Self::TimeReached
                 | Self::CollisionsReached
         )
@@ -173,7 +176,7 @@ impl StopReason {
     pub fn as_str(self) -> &'static str {
         match self {
             Self::PackingFractionReached => "packing_fraction_reached",
-            Self::Jammed => "jammed",
+            Self::PressureReached => "pressure_reached",
             Self::TimeReached => "time_reached",
             Self::CollisionsReached => "collisions_reached",
             Self::Stalled => "stalled",
@@ -480,7 +483,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             }
             if let Some(z) = stage.until.reduced_pressure {
                 if progress.last_z >= z {
-                    report_reason = Some(StopReason::Jammed);
+                    report_reason = Some(StopReason::PressureReached);
                     break;
                 }
             }

@@ -245,14 +245,19 @@ pub fn fuller(ctx: &StudyContext) -> StudyOutput {
 
 /// A short name for why a run failed: the RSA rejection limit or the stage's stop reason.
 fn failure_kind(message: &str) -> &'static str {
-    ["stalled", "wall_clock_limit", "event_limit", "jammed"]
-        .into_iter()
-        .find(|k| message.contains(k))
-        .unwrap_or(if message.contains("consecutive rejections") {
-            "N^F rejections"
-        } else {
-            "other"
-        })
+    [
+        "stalled",
+        "wall_clock_limit",
+        "event_limit",
+        "pressure_reached",
+    ]
+    .into_iter()
+    .find(|k| message.contains(k))
+    .unwrap_or(if message.contains("consecutive rejections") {
+        "N^F rejections"
+    } else {
+        "other"
+    })
 }
 
 /// The Fuller scene as RSA alone at true size with rejection limit `limit`.
