@@ -10,19 +10,21 @@
 //!   of the measured stage, and its time-averaged `Z` as a sanity check (Carnahan–Starling
 //!   gives 13.0 at φ = 0.5). N = 10⁴, 10⁵ (quick: 10⁴).
 //! * [`jamming`] — `examples/scenes/mono_periodic_jam.toml` (10⁴ spheres, φ = 0.3 to
-//!   `Z = 1e12`) at rates 0.02, 0.05, 0.1, both queues. Quick: 2000 spheres, rate 0.05.
+//!   `Z = 1e12`): its pressure-adaptive protocol and the fixed rate it replaced, both queues,
+//!   with the rattlers and the backbone's contact number. Quick: 1000 spheres.
 //! * [`scaling`] — cost per event against N (paper 001, Fig. 4): grow at rate 0.1 to a dense
 //!   state, then time stages without growth, repeated back to back for small N; median
 //!   µs/event and its spread, and the least-squares slope of µs/event against log₁₀ N per
 //!   queue. Monodisperse (dense state φ = 0.60) N = 10³…10⁶ (quick 10³, 10⁴); Fuller q = 0.5,
 //!   d = 2–16 (dense state φ = 0.65) N ≈ 10³…10⁵ (quick 10³, 10⁴).
 //! * [`tuning`] — `neighbour_skin` and `events_per_particle_per_interval` swept alone.
-//! * [`growth_rate`] — the Lubachevsky–Stillinger growth rate against the jammed φ and the
+//! * [`growth_rate`] — the Lubachevsky–Stillinger growth rate against φ at Z = 10¹² and the
 //!   wall time (Pareto), over seeds.
 //! * [`memory`] — peak resident memory per particle, measured in a child process.
 
 use super::{median, si, slope, spread, Figure, Series, StudyContext, StudyOutput, Table};
-use densepack::io::scene::{ContainerSpec, Scene};
+use densepack::analysis::jamming::{jamming_report, DEFAULT_CUTOFF};
+use densepack::io::scene::{ContainerSpec, Scene, StageSpec};
 use densepack::kernel::StageReport;
 use densepack::queue::QueueKind;
 use densepack::run::run_scene;
@@ -34,6 +36,8 @@ const SEED: u64 = 2026;
 const SEED_FRACTION: f64 = 0.3;
 /// The default scene of the `jamming` study.
 const JAM_SCENE: &str = include_str!("../../../examples/scenes/mono_periodic_jam.toml");
+/// The default scene's particles grown with a slow finish (its stages only are used).
+const SLOW_JAM_SCENE: &str = include_str!("../../../examples/scenes/mono_periodic_jam_slow.toml");
 /// Both event queues, by their scene names.
 pub const QUEUES: [&str; 2] = ["heap", "calendar"];
 
@@ -314,7 +318,9 @@ pub fn equilibrium(ctx: &StudyContext) -> StudyOutput {
     )
 }
 
-/// The default jamming scene.
+/// The default jamming scene (a fixed rate) beside the same scene grown with a rate that falls
+/// with the pressure and a slow finish (the stages of `mono_periodic_jam_slow.toml`): time
+/// against the quality of the contact network.
 pub fn jamming(ctx: &StudyContext) -> StudyOutput {
     let base =
         Scene::from_toml(JAM_SCENE).expect("examples/scenes/mono_periodic_jam.toml is valid");
@@ -322,16 +328,15 @@ pub fn jamming(ctx: &StudyContext) -> StudyOutput {
         .particles
         .count
         .expect("the jamming scene is monodisperse");
-    let (n, rates): (usize, &[f64]) = if ctx.quick {
-        (1000, &[0.05])
-    } else {
-        (full, &[0.02, 0.05, 0.1])
-    };
+    let n = if ctx.quick { 1000 } else { full };
     let mut table = Table::new(
         "jamming: examples/scenes/mono_periodic_jam.toml",
         &format!(
             "The default scene (periodic cube, monodisperse, RSA at φ = 0.3, relative growth \
-             until Z = 1e12, thermostat, max 600 wall s) with N = {n}{}; queue and rate varied.",
+             until Z = 1e12, thermostat) with N = {n}{}: its fixed rate, and a rate falling \
+             with the pressure followed by a slow finish, both queues. Contact network by \
+             `densepack analyse` at cut-off 1e-9: rattlers (not locally jammed) removed \
+             iteratively, backbone mean contact number (isostatic: 6).",
             if ctx.quick {
                 " (box edge scaled by (N/10⁴)^⅓ so the diameter is that of the scene)"
             } else {
@@ -339,7 +344,7 @@ pub fn jamming(ctx: &StudyContext) -> StudyOutput {
             }
         ),
         &[
-            "rate",
+            "protocol",
             "queue",
             "wall s",
             "collisions",
@@ -347,17 +352,24 @@ pub fn jamming(ctx: &StudyContext) -> StudyOutput {
             "collisions/s",
             "final φ",
             "final Z",
+            "rattlers %",
+            "backbone Z",
         ],
     );
     let mut points: [Vec<(f64, f64)>; 2] = [Vec::new(), Vec::new()];
-    for &rate in rates {
+    for slow in [false, true] {
         for (q, queue) in QUEUES.iter().enumerate() {
             let mut scene = base.clone();
             scene.queue = match *queue {
                 "heap" => QueueKind::Heap,
                 _ => QueueKind::Calendar,
             };
-            scene.stages[0].rate = Some(rate);
+            if slow {
+                scene.stages = Scene::from_toml(SLOW_JAM_SCENE)
+                    .expect("examples/scenes/mono_periodic_jam_slow.toml is valid")
+                    .stages;
+            }
+            let protocol = protocol_label(&scene.stages);
             if n != full {
                 let factor = (n as f64 / full as f64).cbrt();
                 scene.particles.count = Some(n);
@@ -370,13 +382,18 @@ pub fn jamming(ctx: &StudyContext) -> StudyOutput {
             scene
                 .validate()
                 .expect("the rescaled jamming scene is valid");
-            let lead = vec![format!("{rate}"), queue.to_string()];
-            match run(&format!("jamming {queue} N = {n} rate {rate}"), &scene) {
-                Ok(stages) => {
+            let lead = vec![protocol.clone(), queue.to_string()];
+            eprintln!("-- jamming {queue} N = {n}, {protocol}");
+            match run_scene(&scene, &mut |_, _| {}) {
+                Ok(outcome) => {
+                    let stages = &outcome.stages;
                     let r = stages.last().expect("the scene has a stage");
                     let collisions: u64 = stages.iter().map(|s| s.counts.collisions).sum();
                     let wall: f64 = stages.iter().map(|s| s.wall_seconds).sum();
-                    points[q].push((rate, wall));
+                    let network = jamming_report(&outcome.packing, DEFAULT_CUTOFF, false, 0, 0.0)
+                        .expect("a sphere packing");
+                    let rattlers = 100.0 * network.at_cutoff.rattler_fraction;
+                    points[q].push((wall, rattlers));
                     table.row(
                         [
                             lead,
@@ -387,24 +404,54 @@ pub fn jamming(ctx: &StudyContext) -> StudyOutput {
                                 format!("{:.0}", collisions as f64 / wall.max(1e-12)),
                                 format!("{:.5}", r.packing_fraction),
                                 format!("{:.2e}", r.reduced_pressure),
+                                format!("{rattlers:.2}"),
+                                network
+                                    .at_cutoff
+                                    .backbone_mean_contacts
+                                    .map_or("none".into(), |z| format!("{z:.4}")),
                             ],
                         ]
                         .concat(),
                     );
                 }
-                Err(e) => table.failed_row(lead, &e),
+                Err(e) => {
+                    eprintln!("   FAILED: {e}");
+                    table.failed_row(lead, &format!("FAILED: {e}"))
+                }
             }
         }
     }
     per_queue(
         table,
         Figure::new(
-            format!("Jamming {n} spheres, φ 0.3 → Z = 1e12"),
-            "growth rate",
+            format!("Jamming {n} spheres, φ 0.3 → Z = 1e12: time against rattlers"),
             "wall seconds",
+            "rattlers (%)",
         ),
         points,
     )
+}
+
+/// A chain of growth stages in words: `0.05 (falling as (1e2/Z)^1 to 0.005) → Z 1e9; …`.
+fn protocol_label(stages: &[StageSpec]) -> String {
+    stages
+        .iter()
+        .map(|s| {
+            let rate = s.rate.map_or("no growth".into(), |r| format!("{r}"));
+            let law = s.adaptive.map_or(String::new(), |a| {
+                format!(
+                    " (falling as ({:e}/Z)^{} to {})",
+                    a.onset_pressure, a.exponent, a.min_rate
+                )
+            });
+            let goal = s
+                .until
+                .reduced_pressure
+                .map_or(String::new(), |z| format!(" → Z {z:e}"));
+            format!("{rate}{law}{goal}")
+        })
+        .collect::<Vec<_>>()
+        .join("; ")
 }
 
 /// µs per event against N in a dense system, monodisperse and Fuller (paper 001, Fig. 4).
@@ -683,17 +730,18 @@ pub fn growth_rate(ctx: &StudyContext) -> StudyOutput {
         (10_000, &[0.5, 0.2, 0.1, 0.05, 0.02, 0.01], 3)
     };
     let mut table = Table::new(
-        "growth rate: jammed φ against wall time",
+        "growth rate: φ at Z = 1e12 against wall time",
         &format!(
             "N = {n} equal spheres, periodic cube, RSA at φ = 0.3, relative growth (thermostat \
              at every barrier) until Z = 1e12, calendar queue, seeds 1…{seeds}: medians over \
-             the seeds, spread = max − min. A slower rate jams denser (closer to random close \
-             packing, φ ≈ 0.64) and costs more collisions."
+             the seeds, spread = max − min. A slower rate packs denser (closer to random close \
+             packing, φ ≈ 0.64) and costs more collisions. A fixed rate does not make the \
+             contact network rigid (the `jamming` study): this is density against time only."
         ),
         &[
             "rate",
             "runs",
-            "median jammed φ",
+            "median φ",
             "φ spread",
             "median wall s",
             "wall spread",
@@ -750,8 +798,8 @@ pub fn growth_rate(ctx: &StudyContext) -> StudyOutput {
     let default_rate = 0.05;
     if let Some(&(_, t0, phi0)) = medians.iter().find(|m| m.0 == default_rate) {
         markdown += &format!(
-            "The shipped jamming scene (`mono_periodic_jam.toml`) uses rate {default_rate}. \
-             Against it (median φ {phi0:.5}, {t0:.2} s):"
+            "Against rate {default_rate} (the fast first rate of the shipped jamming scene, \
+             `mono_periodic_jam.toml`; median φ {phi0:.5}, {t0:.2} s):"
         );
         for &(rate, t, phi) in medians.iter().filter(|m| m.0 != default_rate) {
             markdown += &format!(
@@ -771,7 +819,7 @@ pub fn growth_rate(ctx: &StudyContext) -> StudyOutput {
             .map(|(t, p)| (t, -p))
             .collect();
     let mut figure = Figure::new(
-        format!("Growth rate: time against jammed φ, {n} spheres"),
+        format!("Growth rate: time against φ at Z = 1e12, {n} spheres"),
         "wall seconds to Z = 1e12",
         "jammed packing fraction",
     )
