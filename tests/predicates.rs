@@ -7,7 +7,7 @@
 
 use densepack::shape::{
     exit_ball_time, first_falling_root, lanes3, stays_in_ball, Collidable, GapQuadratic, Lanes,
-    Sphere, Vec3,
+    PairScreen, Sphere, Vec3,
 };
 use num_bigint::BigInt;
 use num_rational::BigRational;
@@ -156,17 +156,9 @@ fn screen(
     grows: bool,
 ) -> ([bool; 2], GapQuadratic<Lanes>) {
     let [(b0, dr0, dv0), (b1, dr1, dv1)] = lanes;
-    Sphere::may_collide(
-        a,
-        [b0, b1],
-        &(),
-        [&(), &()],
-        &lanes3(dr0, dr1),
-        &lanes3(dv0, dv1),
-        t,
-        Lanes::new(horizon),
-        grows,
-    )
+    GapQuadratic::<Lanes>::may_collide(a, [b0, b1], &(), t, Lanes::new(horizon), grows, || {
+        (lanes3(dr0, dr1), lanes3(dv0, dv1), [(); 2])
+    })
 }
 
 impl Pair {
@@ -472,14 +464,14 @@ proptest! {
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(4000))]
 
-    /// The kernel's screen (`Collidable::may_collide`, two pairs per call) never rejects a
+    /// The kernel's screen (`PairScreen::may_collide`, two pairs per call) never rejects a
     /// pair that `collision_time` gives a time, with and without growth (and told of it
     /// or not: the kernel says there is none only for intervals without), also with the
     /// horizon at the contact time itself or one rounding step either side of it (where the
     /// screen's products and the time's division round differently), and for pairs touching
     /// or overlapping by rounding; each lane answers for its own pair, whatever the other
     /// holds. The time of a pair that passes, from what the screen handed on
-    /// (`Collidable::screened_time`), is `collision_time`'s, bit for bit.
+    /// (`PairScreen::contact_time`), is `collision_time`'s, bit for bit.
     #[test]
     fn sphere_screen_never_rejects_a_contact(
         p in pair(),
@@ -520,7 +512,9 @@ proptest! {
                     "lane {k} (grows {grows}): screen rejected a contact at {time} within {}",
                     horizon[k]);
                 if passed[k] {
-                    let screened = Sphere::screened_time(&handed_on, k, horizon[k]);
+                    // The sphere's screen times a pair from its quadratic alone.
+                    let unscreened = || panic!("the sphere's screen hands on its times");
+                    let screened = handed_on.contact_time(k, horizon[k], unscreened);
                     prop_assert_eq!(screened.to_bits(), time.to_bits(),
                         "lane {} (grows {}): {} from the screen against {}",
                         k, grows, screened, time);

@@ -8,12 +8,12 @@
 //!
 //! Wall contacts treat the particle through its bounding sphere, which is exact for spheres.
 //! Distance functions follow paper 001, Eq. 23 (plane) and its cylinder analogue. A container
-//! whose walls are all planes ([`Boundary::PLANAR_WALLS`]) lets a shape that knows its own
-//! plane contacts ([`Collidable::SHAPED_PLANE_CONTACT`], e.g. the ellipsoid) predict them
-//! itself ([`Boundary::predict_shaped_wall`]); other containers keep the bounding sphere,
-//! which is conservative for any shape.
+//! whose walls are all planes ([`Boundary::planes`]) lets a shape that knows its own plane
+//! contacts ([`Collidable::PlaneContact`], e.g. the ellipsoid) predict them itself
+//! ([`PlanarWalls::predict_shaped_wall`]); other containers keep the bounding sphere, which
+//! is conservative for any shape.
 
-use crate::shape::{exit_ball_time, Collidable, Lanes, Lanes3, Vec3};
+use crate::shape::{exit_ball_time, Collidable, Lanes, Lanes3, PlaneContact, Vec3};
 use rand::Rng;
 use wide::{CmpGt, CmpLt};
 
@@ -29,9 +29,12 @@ pub type WallId = u8;
 pub trait Boundary: Clone + Send + Sync + 'static {
     /// Whether the container has any wall (`false` removes wall events from the hot loop).
     const HAS_WALLS: bool;
-    /// Whether every wall is a plane, so that [`Boundary::predict_shaped_wall`] asks the shape
-    /// itself and the wall response may use the shape's own contact point.
-    const PLANAR_WALLS: bool = false;
+    /// The container's walls as planes, which a shape with its own plane contacts is asked
+    /// about one by one ([`PlanarWalls`]): the container itself when every wall is a plane,
+    /// [`NotPlanar`] (no value) when a wall is curved or there is none.
+    type Planes: PlanarWalls;
+    /// The walls as planes ([`Boundary::Planes`]), `None` unless every wall is a plane.
+    fn planes(&self) -> Option<&Self::Planes>;
     /// Lower corner of the axis-aligned bounding box of the container.
     fn min(&self) -> Vec3;
     /// Upper corner of the axis-aligned bounding box of the container.
@@ -57,27 +60,6 @@ pub trait Boundary: Clone + Send + Sync + 'static {
         g: f64,
         max_tau: f64,
     ) -> Option<(f64, WallId)>;
-    /// First contact of a particle of shape `S` (centre `p`, velocity `v`, rotational state
-    /// `spin`, all at kernel time `t`) with a wall, within `[0, max_tau]`, asking the shape
-    /// for each plane. Used only when both [`Boundary::PLANAR_WALLS`] and
-    /// [`Collidable::SHAPED_PLANE_CONTACT`] hold; the default is the bounding sphere.
-    fn predict_shaped_wall<S: Collidable>(
-        &self,
-        p: &Vec3,
-        v: &Vec3,
-        shape: &S,
-        _spin: &S::Spin,
-        t: f64,
-        max_tau: f64,
-    ) -> Option<(f64, WallId)> {
-        self.predict_wall(
-            p,
-            v,
-            shape.bounding_radius(t),
-            shape.bounding_growth_rate(),
-            max_tau,
-        )
-    }
     /// Unit normal of `wall` pointing into the container, at the contact of a sphere
     /// centred at `p`.
     fn wall_normal(&self, wall: WallId, p: &Vec3) -> Vec3;
@@ -87,6 +69,45 @@ pub trait Boundary: Clone + Send + Sync + 'static {
     /// A uniformly distributed centre for a sphere of radius `r` that keeps clear of the walls,
     /// or `None` if no such centre exists.
     fn sample_center<R: Rng>(&self, r: f64, rng: &mut R) -> Option<Vec3>;
+}
+
+/// A container whose walls are all planes, asked for a particle's first wall contact through
+/// the shape's own plane contacts ([`PlaneContact`]) rather than its bounding sphere.
+pub trait PlanarWalls {
+    /// First contact of a particle of shape `S` (centre `p`, velocity `v`, rotational state
+    /// `spin`, all at kernel time `t`) with a wall, within `[0, max_tau]`, asking the shape
+    /// (its plane contacts `contact`) for each plane.
+    #[allow(clippy::too_many_arguments)]
+    fn predict_shaped_wall<S: Collidable>(
+        &self,
+        p: &Vec3,
+        v: &Vec3,
+        shape: &S,
+        contact: S::PlaneContact,
+        spin: &S::Spin,
+        t: f64,
+        max_tau: f64,
+    ) -> Option<(f64, WallId)>;
+}
+
+/// The planes of a container with a curved wall or none: no value, so shaped wall contacts
+/// compile out of the kernel.
+#[derive(Clone, Copy, Debug)]
+pub enum NotPlanar {}
+
+impl PlanarWalls for NotPlanar {
+    fn predict_shaped_wall<S: Collidable>(
+        &self,
+        _: &Vec3,
+        _: &Vec3,
+        _: &S,
+        _: S::PlaneContact,
+        _: &S::Spin,
+        _: f64,
+        _: f64,
+    ) -> Option<(f64, WallId)> {
+        match *self {}
+    }
 }
 
 /// A cuboid periodic along all three axes: no walls at all.
@@ -100,6 +121,12 @@ pub struct PeriodicBox {
 
 impl Boundary for PeriodicBox {
     const HAS_WALLS: bool = false;
+    type Planes = NotPlanar;
+
+    #[inline(always)]
+    fn planes(&self) -> Option<&NotPlanar> {
+        None
+    }
 
     fn min(&self) -> Vec3 {
         self.min
@@ -229,7 +256,12 @@ pub struct WalledBox {
 
 impl Boundary for WalledBox {
     const HAS_WALLS: bool = true;
-    const PLANAR_WALLS: bool = true;
+    type Planes = Self;
+
+    #[inline(always)]
+    fn planes(&self) -> Option<&Self> {
+        Some(self)
+    }
 
     fn min(&self) -> Vec3 {
         self.min
@@ -297,37 +329,6 @@ impl Boundary for WalledBox {
         first.best
     }
     #[inline]
-    fn predict_shaped_wall<S: Collidable>(
-        &self,
-        p: &Vec3,
-        v: &Vec3,
-        shape: &S,
-        spin: &S::Spin,
-        t: f64,
-        max_tau: f64,
-    ) -> Option<(f64, WallId)> {
-        let mut first = FirstContact::within(max_tau);
-        for k in 0..3 {
-            if self.periodic[k] {
-                continue;
-            }
-            for (wall, distance, sign) in [
-                (2 * k as u8, p[k] - self.min[k], 1.0),
-                (2 * k as u8 + 1, self.max[k] - p[k], -1.0),
-            ] {
-                let mut n = Vec3::zeros();
-                n[k] = sign;
-                let window = first.best.map_or(max_tau, |(tau, _)| tau);
-                if let Some(tau) =
-                    shape.predict_plane_contact(spin, &n, distance, sign * v[k], t, window)
-                {
-                    first.offer(tau, wall);
-                }
-            }
-        }
-        first.best
-    }
-    #[inline]
     fn wall_normal(&self, wall: WallId, _: &Vec3) -> Vec3 {
         let mut n = Vec3::zeros();
         n[(wall / 2) as usize] = if wall.is_multiple_of(2) { 1.0 } else { -1.0 };
@@ -356,6 +357,42 @@ impl Boundary for WalledBox {
     }
 }
 
+/// Every wall of a walled box is a face: the shape is asked for each non-periodic face.
+impl PlanarWalls for WalledBox {
+    #[inline]
+    fn predict_shaped_wall<S: Collidable>(
+        &self,
+        p: &Vec3,
+        v: &Vec3,
+        shape: &S,
+        contact: S::PlaneContact,
+        spin: &S::Spin,
+        t: f64,
+        max_tau: f64,
+    ) -> Option<(f64, WallId)> {
+        let mut first = FirstContact::within(max_tau);
+        for k in 0..3 {
+            if self.periodic[k] {
+                continue;
+            }
+            for (wall, distance, sign) in [
+                (2 * k as u8, p[k] - self.min[k], 1.0),
+                (2 * k as u8 + 1, self.max[k] - p[k], -1.0),
+            ] {
+                let mut n = Vec3::zeros();
+                n[k] = sign;
+                let window = first.best.map_or(max_tau, |(tau, _)| tau);
+                if let Some(tau) =
+                    contact.predict(shape, spin, &n, distance, sign * v[k], t, window)
+                {
+                    first.offer(tau, wall);
+                }
+            }
+        }
+        first.best
+    }
+}
+
 /// A rigid cylindrical container with its axis along z: mantle and two flat caps, as for
 /// concrete cylinder specimens (e.g. 150 × 300 mm).
 #[derive(Clone, Debug, PartialEq)]
@@ -374,6 +411,12 @@ const TOP: WallId = 2;
 
 impl Boundary for CylinderContainer {
     const HAS_WALLS: bool = true;
+    type Planes = NotPlanar;
+
+    #[inline(always)]
+    fn planes(&self) -> Option<&NotPlanar> {
+        None
+    }
 
     fn min(&self) -> Vec3 {
         self.base_center - Vec3::new(self.radius, self.radius, 0.0)

@@ -19,7 +19,7 @@
 use super::{Edmd, EventCounts, KernelConfig, LocalLists, Particle};
 use crate::boundary::Boundary;
 use crate::queue::EventQueue;
-use crate::shape::Collidable;
+use crate::shape::{Collidable, EnvelopeModel, PeriodicImages};
 use crate::spatial::CellGrid;
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
@@ -85,7 +85,7 @@ where
             updates_at_sort: self.updates_at_sort,
             skin: self.skin,
             mean_radius: self.mean_radius,
-            images: self.images,
+            images: self.images.is_some(),
         }
     }
 }
@@ -115,7 +115,7 @@ where
                 "{name} has {len} entries for {n} particles"
             )));
         }
-        let envelopes = if S::ENVELOPES { n } else { 0 };
+        let envelopes = S::Envelope::kept(n);
         if snapshot.envelopes.len() != envelopes {
             return Err(SnapshotError(format!(
                 "envelopes has {} entries, expected {envelopes}",
@@ -143,6 +143,15 @@ where
         }) {
             return Err(SnapshotError("a neighbour index is out of range".into()));
         }
+        let images = match (snapshot.images, S::Images::tracking()) {
+            (false, _) => None,
+            (true, Some(tracking)) => Some(tracking),
+            (true, None) => {
+                return Err(SnapshotError(
+                    "periodic images tracked for a shape without images".into(),
+                ))
+            }
+        };
         let grid = snapshot.grid.into_owned();
         let image_free_zone = super::image_free_zone(&boundary, &grid);
         Ok(Self {
@@ -179,7 +188,7 @@ where
             // Set by the stage the kernel continues (`Edmd::continue_stage`).
             wall_growth: 1.0,
             stage_clock: 0.0,
-            images: snapshot.images,
+            images,
         })
     }
 }

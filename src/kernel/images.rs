@@ -1,5 +1,5 @@
 //! Periodic images for particles comparable to the box (shapes with
-//! [`crate::shape::Collidable::PERIODIC_IMAGES`]).
+//! [`crate::shape::Collidable::Images`]).
 //!
 //! Minimum image is exact while every pair of neighbour-list spheres reaches less than half the
 //! shortest periodic edge: then two particles can meet through one image only. A needle about
@@ -140,7 +140,8 @@ mod tests {
     use crate::boundary::{Boundary, PeriodicBox};
     use crate::kernel::{Edmd, EventKind, KernelConfig};
     use crate::queue::CalendarQueue;
-    use crate::shape::{Collidable, Ellipsoid, Growth, Spin};
+    use crate::shape::ellipsoid::Spin;
+    use crate::shape::{Collidable, Ellipsoid, Growth};
     use nalgebra::UnitQuaternion;
     use rand::SeedableRng;
 
@@ -217,7 +218,7 @@ mod tests {
         let b = a + u * 2.2 - Vec3::new(4.0, 0.0, 0.0);
         let mut kernel = needles(vec![a, b], 10f64.to_radians(), 1.0, 0.1, Vec3::repeat(4.0));
         assert!(
-            kernel.images,
+            kernel.images.is_some(),
             "list spheres reach half the box: images are tracked"
         );
         let (t, i, j) = first_collision(&mut kernel, 2.0).expect("the tips meet");
@@ -244,7 +245,7 @@ mod tests {
             0.1,
             Vec3::new(2.0, 3.0, 3.0),
         );
-        assert!(kernel.images);
+        assert!(kernel.images.is_some());
         let (t, i, j) = first_collision(&mut kernel, 2.0).expect("the needle meets itself");
         assert_eq!(i, j);
         assert!((t - 1.0).abs() < 1e-9, "{t}");

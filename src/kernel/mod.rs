@@ -36,7 +36,7 @@
 //! down to the smallest sphere), so wide size distributions stay cheap; the skin adapts at
 //! barriers ([`Edmd::skin`]).
 //!
-//! Shapes that may grow longer than half the box ([`Collidable::PERIODIC_IMAGES`]) switch to
+//! Shapes that may grow longer than half the box ([`Collidable::Images`]) switch to
 //! image-aware lists at the barrier where the list spheres reach half the shortest periodic
 //! edge: entries then name a partner *and* its periodic image, including the particle's own
 //! images (`images`).
@@ -72,12 +72,12 @@ pub use stage::{
     StopReason, Until, JAMMING_PRESSURE,
 };
 
-use crate::boundary::{Boundary, WallId};
+use crate::boundary::{Boundary, PlanarWalls, WallId};
 use crate::prefetch;
 use crate::queue::EventQueue;
 use crate::shape::{
-    bounding_sphere_wall_impulse, exit_ball_time, lanes3, stays_in_ball, Collidable, Lanes,
-    MassRule, Vec3,
+    bounding_sphere_wall_impulse, exit_ball_time, lanes3, stays_in_ball, Collidable, EnvelopeModel,
+    Lanes, MassRule, PairScreen, PeriodicImages, PlaneContact, Rotation, Vec3,
 };
 use crate::spatial::{CellGrid, MAX_LEVELS};
 use crate::tuning::{DEFAULT_EVENTS_PER_INTERVAL, DEFAULT_NEIGHBOUR_SKIN, DEFAULT_TEMPERATURE};
@@ -124,7 +124,7 @@ impl<S: Collidable> Particle<S> {
     /// Rotational state at kernel time `t`.
     #[inline]
     pub fn spin_at(&self, t: f64) -> S::Spin {
-        S::spin_after(&self.spin, t)
+        self.spin.after(t)
     }
 
     /// Changes the velocity by `dv` and sets the rotational state to `spin`, both at kernel
@@ -133,7 +133,7 @@ impl<S: Collidable> Particle<S> {
     fn kick(&mut self, dv: Vec3, spin: S::Spin, t: f64) {
         self.pos -= dv * t;
         self.vel += dv;
-        self.spin = S::spin_after(&spin, -t);
+        self.spin = spin.after(-t);
     }
 }
 
@@ -260,13 +260,15 @@ pub struct Edmd<S: Collidable, B: Boundary, Q: EventQueue> {
     local: LocalLists,
     /// The neighbour-list spheres.
     list_spheres: Vec<ListSphere>,
-    /// Neighbour envelopes ([`Collidable::Envelope`]) of the lists, one per particle when
-    /// [`Collidable::ENVELOPES`], else empty.
+    /// Neighbour envelopes ([`Collidable::Envelope`]) of the lists, [`EnvelopeModel::kept`]
+    /// of them (one per particle, or none when the list sphere is the envelope); read and
+    /// written only by the envelope model.
     envelopes: Vec<S::Envelope>,
     /// Kernel time up to which each particle provably stays inside its envelope (its
-    /// list-update event), refreshed by [`Edmd::predict_pairs`]; one per particle when
-    /// [`Collidable::ENVELOPES`], else empty. Pair predictions look no further than the
-    /// earlier of the two: whichever particle updates its list then predicts the pair again.
+    /// list-update event), recorded before its prediction passes
+    /// ([`Self::refresh_list_exit`]); as many as envelopes, and read and written only by the
+    /// envelope model. Pair predictions look no further than the earlier of the two:
+    /// whichever particle updates its list then predicts the pair again.
     list_exit: Vec<f64>,
     /// Symmetric neighbour lists: `j ∈ neighbours[i] ⇔ i ∈ neighbours[j]`.
     neighbours: Vec<NeighbourList>,
@@ -302,7 +304,7 @@ pub struct Edmd<S: Collidable, B: Boundary, Q: EventQueue> {
     image_free_zone: [Vec3; 2],
     /// Whether any particle grows in the current barrier interval (set by
     /// [`Self::begin_interval`]; growth rates change only between intervals): with `false`
-    /// the prediction pass's screen leaves the growth terms out ([`Collidable::may_collide`]).
+    /// the prediction pass's screen leaves the growth terms out ([`PairScreen::may_collide`]).
     /// `true` is right for any rates.
     grows: bool,
     /// Reused buffer for neighbour-list candidates, and for the partners of a barrier's pass.
@@ -322,9 +324,11 @@ pub struct Edmd<S: Collidable, B: Boundary, Q: EventQueue> {
     /// Simulated time of the running stage at kernel time 0 (the last barrier).
     stage_clock: f64,
     /// Whether neighbour-list entries and collision partners carry periodic image shifts
-    /// ([`images`]); switched on for good at a barrier once list spheres can reach half the
-    /// shortest periodic edge, and only for shapes with [`Collidable::PERIODIC_IMAGES`].
-    images: bool,
+    /// ([`images`]): the shape's licence ([`PeriodicImages::tracking`]) once switched on, for
+    /// good, at a barrier where list spheres can reach half the shortest periodic edge.
+    /// Always `None` for shapes without images ([`crate::shape::NoImages`] has no value), so
+    /// every test of it is a constant there.
+    images: Option<S::Images>,
 }
 
 impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
@@ -396,11 +400,9 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 p.vel -= drift;
             }
         }
-        if S::ROTATES {
+        if <S::Spin as Rotation<S>>::FREEDOMS > 0 {
             for (p, m) in particles.iter_mut().zip(&masses) {
-                p.spin = p
-                    .shape
-                    .thermal_spin(&p.spin, *m, config.temperature, 0.0, rng);
+                p.spin = p.spin.thermal(&p.shape, *m, config.temperature, 0.0, rng);
             }
         }
         let grid = CellGrid::new(boundary.min(), boundary.max(), boundary.periodic(), 1.0, 0);
@@ -415,16 +417,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                     radius: 0.0,
                 })
                 .collect(),
-            envelopes: if S::ENVELOPES {
-                vec![S::Envelope::default(); n]
-            } else {
-                Vec::new()
-            },
-            list_exit: if S::ENVELOPES {
-                vec![0.0; n]
-            } else {
-                Vec::new()
-            },
+            envelopes: vec![S::Envelope::default(); S::Envelope::kept(n)],
+            list_exit: vec![0.0; S::Envelope::kept(n)],
             neighbours: vec![NeighbourList::new(); n],
             ids: (0..n as u32).collect(),
             queue: Q::with_capacity(n),
@@ -451,7 +445,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             mean_radius: 0.0,
             wall_growth: 1.0,
             stage_clock: 0.0,
-            images: false,
+            images: None,
         };
         kernel.rescale_temperature();
         kernel.update_mean_radius();
@@ -459,12 +453,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             let shape = &kernel.particles[i].shape;
             let (r, l) = (shape.bounding_radius(0.0), shape.skin_length(0.0));
             kernel.list_spheres[i].radius = kernel.list_radius_for(r, l);
-            if S::ENVELOPES {
-                let p = &kernel.particles[i];
-                kernel.envelopes[i] =
-                    p.shape
-                        .envelope(&p.spin, 0.0, kernel.list_spheres[i].radius - r);
-            }
+            let (p, skin) = (&kernel.particles[i], kernel.list_spheres[i].radius - r);
+            S::Envelope::build(&mut kernel.envelopes, i, &p.shape, &p.spin, 0.0, skin);
         }
         let width = kernel.needed_cell_width(0.0);
         kernel.rebuild_grid(width);
@@ -597,10 +587,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let t = self.time;
         self.particles
             .iter()
-            .map(|p| {
-                p.shape
-                    .rotational_kinetic_twice(&p.spin_at(t), self.mass(p, t), t)
-            })
+            .map(|p| p.spin_at(t).kinetic_twice(&p.shape, self.mass(p, t), t))
             .sum()
     }
 
@@ -650,13 +637,15 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 p.vel *= factor;
             }
         }
-        if S::ROTATES {
-            // Rotation has its own three degrees of freedom per particle.
+        let freedoms = <S::Spin as Rotation<S>>::FREEDOMS;
+        if freedoms > 0 {
+            // Rotation has its own degrees of freedom.
+            let dof = f64::from(freedoms) * self.particles.len() as f64;
             let k2 = self.rotational_kinetic_twice();
             if k2 > 0.0 {
                 let factor = (self.config.temperature * dof / k2).sqrt();
                 for p in &mut self.particles {
-                    S::scale_angular_velocity(&mut p.spin, factor);
+                    p.spin.scale_angular_velocity(factor);
                 }
             }
         }
@@ -698,7 +687,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let mut visited = vec![false; n];
         permute_in_place(&mut self.counts, &order, &mut visited);
         permute_in_place(&mut self.list_spheres, &order, &mut visited);
-        if S::ENVELOPES {
+        if !self.envelopes.is_empty() {
             permute_in_place(&mut self.envelopes, &order, &mut visited);
         }
         permute_in_place(&mut self.ids, &order, &mut visited);
@@ -764,8 +753,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     }
 
     /// Appends to `out` the particles `j ≥ first`, `j ≠ i`, whose neighbour-list spheres
-    /// overlap `i`'s (`|c_i − c_j|² < (r_i + r_j)²`), and their envelopes (shapes with
-    /// [`Collidable::ENVELOPES`]), in the order of the cell walk. Each candidate is tested
+    /// overlap `i`'s (`|c_i − c_j|² < (r_i + r_j)²`), and their envelopes
+    /// ([`EnvelopeModel::may_overlap`]), in the order of the cell walk. Each candidate is tested
     /// as the walk meets it (a list update walks some 20 cells for about 70 candidates and
     /// 13 neighbours): no buffer of candidates and no second pass over it.
     fn overlapping_lists(&self, i: usize, first: usize, out: &mut NeighbourList) {
@@ -781,10 +770,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             let keep = d.norm_squared() < reach * reach
                 && j >= first
                 && j != i
-                && (!S::ENVELOPES || {
-                    let (e_i, e_j) = (&self.envelopes[i], &self.envelopes[j]);
-                    S::envelopes_overlap(e_i, e_j, &d)
-                });
+                && S::Envelope::may_overlap(&self.envelopes, i, j, &d);
             if keep {
                 out.push(j as u32);
             }
@@ -834,12 +820,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let shape = &self.particles[i].shape;
         let (r, l) = (shape.bounding_radius(t), shape.skin_length(t));
         self.list_spheres[i].radius = self.list_radius_for(r, l);
-        if S::ENVELOPES {
-            let p = &self.particles[i];
-            self.envelopes[i] = p
-                .shape
-                .envelope(&p.spin_at(t), t, self.list_spheres[i].radius - r);
-        }
+        let (p, skin) = (&self.particles[i], self.list_spheres[i].radius - r);
+        S::Envelope::build(&mut self.envelopes, i, &p.shape, &p.spin_at(t), t, skin);
         self.grid.remove(i);
         let cell = self.home_cell(i);
         self.grid.insert(i, cell);
@@ -906,8 +888,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             // (cheap next to the ~N events of an interval; keeps neighbours in cache).
             self.rebuild_grid(self.grid.min_width());
         }
-        if self.needs_images(needed) {
-            self.images = true;
+        if let Some(tracking) = self.needs_images(needed) {
+            self.images = Some(tracking);
             self.build_all_neighbour_lists();
         }
         self.queue.reset(0.0, interval, n);
@@ -928,20 +910,19 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// replaces `i`'s (every caller predicts `i` afresh; [`Self::predict_own`] adds to it).
     ///
     /// The hot loop of the kernel (tens of predictions per collision), in three passes:
-    /// 1. a screen ([`Collidable::may_collide`], for shapes with
-    ///    [`Collidable::SCREENS_PAIRS`]) marks the neighbours that may meet `i` within the
-    ///    horizon, without the square root and division of a contact time: in the φ = 0.5
-    ///    fluid most neighbours recede, miss or meet after the barrier. Two neighbours per
-    ///    step, one per lane of packed arithmetic ([`Lanes`]); a bit per neighbour in a word
-    ///    per block of [`SCREEN_BLOCK`], and what the screen hands on per step
-    ///    ([`Collidable::Screened`]: for spheres the lanes' gap quadratics);
+    /// 1. a screen ([`PairScreen::may_collide`]) marks the neighbours that may meet `i`
+    ///    within the horizon, without the square root and division of a contact time: in the
+    ///    φ = 0.5 fluid most neighbours recede, miss or meet after the barrier. Two neighbours
+    ///    per step, one per lane of packed arithmetic ([`Lanes`]); a bit per neighbour in a
+    ///    word per block of [`SCREEN_BLOCK`], and what the screen hands on per step
+    ///    ([`Collidable::Screened`]: for spheres the lanes' gap quadratics). Shapes without a
+    ///    screen (`()`) pass every neighbour, and the step compiles to setting the bits;
     /// 2. contact times for the marked ones only, from what the screen handed on
-    ///    ([`Collidable::screened_time`]), or for shapes without
-    ///    a screen for every partner ([`Collidable::collision_time`]), `+∞` for none,
-    ///    appended to a buffer whose end moves past an entry only if it is kept: for spheres
-    ///    nothing in the passes branches on a pair's outcome but the loop over the marked
-    ///    ones, where acting on each prediction at once would mispredict about one branch
-    ///    per neighbour;
+    ///    ([`PairScreen::contact_time`]), or for shapes without a screen from the pair's
+    ///    state ([`Collidable::collision_time`]), `+∞` for none, appended to a buffer whose
+    ///    end moves past an entry only if it is kept: for spheres nothing in the passes
+    ///    branches on a pair's outcome but the loop over the marked ones, where acting on
+    ///    each prediction at once would mispredict about one branch per neighbour;
     /// 3. the few contacts found are sorted (earliest first, the first neighbour on ties) and
     ///    the earliest [`LOCAL_CAPACITY`] go into the list — the events that pushing every
     ///    prediction in neighbour order would keep, up to the order of times that round to
@@ -952,8 +933,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     fn predict_pairs(&mut self, i: usize, partners: Partners) {
         // One pass for intervals with growth and one without, each compiled with its own
         // screen (a flag asked in each step would cost more than the second copy of the
-        // code). Shapes without a screen need only one.
-        if self.grows || !S::SCREENS_PAIRS {
+        // code).
+        if self.grows {
             self.predict_pairs_as::<true>(i, partners);
         } else {
             self.predict_pairs_as::<false>(i, partners);
@@ -965,12 +946,6 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     fn predict_pairs_as<const GROWS: bool>(&mut self, i: usize, partners: Partners) {
         let t = self.time;
         let max_tau = self.barrier_time - t;
-        // Refreshed by the caller ([`Self::refresh_list_exit`]).
-        let exit_i = if S::ENVELOPES {
-            self.list_exit[i]
-        } else {
-            f64::INFINITY
-        };
         let pi = &self.particles[i];
         let (pos_i, vel_i, spin_i, shape_i) =
             (pi.position_at(t), pi.vel, pi.spin_at(t), pi.shape.clone());
@@ -1003,17 +978,12 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         if found.len() <= neighbours.len() {
             found.resize(neighbours.len() + 1, (f64::INFINITY, 0));
         }
-        if S::SCREENS_PAIRS && screened.len() < SCREEN_BLOCK / 2 {
+        if screened.len() < SCREEN_BLOCK / 2 {
             screened.resize(SCREEN_BLOCK / 2, S::Screened::default());
         }
-        // The horizon of the pair of `i` and `j`.
-        let horizon_with = |j: usize| {
-            if S::ENVELOPES {
-                max_tau.min((exit_i.min(self.list_exit[j]) - t).max(0.0))
-            } else {
-                max_tau
-            }
-        };
+        // The horizon of the pair of `i` and `j` (`i`'s exit was recorded by the caller,
+        // [`Self::refresh_list_exit`]).
+        let horizon_with = |j: usize| S::Envelope::pair_horizon(&self.list_exit, i, j, t, max_tau);
         // The relative position, velocity and rotation of partner `entry`, and the horizon
         // of the pair.
         let pair = |entry: u32| {
@@ -1023,23 +993,26 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             (pj, dr, vel_i - pj.vel, pj.spin_at(t), horizon_with(j))
         };
         let mut count = 0;
-        if S::SCREENS_PAIRS {
-            // Most passes are over lists inside the box, which need no minimum image (the
-            // more so the larger the box).
-            let wraps = !self.pairs_free_of_images(i);
-            // Screen: the neighbours that may meet `i` within the horizon, two per step in
-            // the two lanes of packed arithmetic, a block of up
-            // to 64 at a time: a bit per neighbour marks those that pass, and what the screen
-            // hands on is kept per step. Then the times of those that pass, keeping the ones
-            // that meet and are not left out. Nothing in either part branches on a pair's
-            // outcome but the loop over the marked ones.
-            for (block, in_block) in neighbours.chunks(SCREEN_BLOCK).enumerate() {
-                let mut passed = 0u64;
-                for (step, two) in in_block.chunks(2).enumerate() {
-                    // An odd last neighbour fills both lanes; its second lane is cut below.
-                    let entries = [two[0], two[two.len() - 1]];
-                    let j = entries.map(|e| self.partner_index(e));
-                    let pj = j.map(|j| &self.particles[j]);
+        // Most passes are over lists inside the box, which need no minimum image (the more
+        // so the larger the box).
+        let wraps = !self.pairs_free_of_images(i);
+        // Screen: the neighbours that may meet `i` within the horizon, two per step in the
+        // two lanes of packed arithmetic, a block of up to 64 at a time: a bit per neighbour
+        // marks those that pass, and what the screen hands on is kept per step. Then the
+        // times of those that pass, keeping the ones that meet and are not left out. Nothing
+        // in either part branches on a pair's outcome but the loop over the marked ones.
+        // Without a screen every neighbour passes and the pair's state is computed once, for
+        // its contact time; the relative state the screen would take is then never used
+        // and compiles out.
+        for (block, in_block) in neighbours.chunks(SCREEN_BLOCK).enumerate() {
+            let mut passed = 0u64;
+            for (step, two) in in_block.chunks(2).enumerate() {
+                // An odd last neighbour fills both lanes; its second lane is cut below.
+                let entries = [two[0], two[two.len() - 1]];
+                let j = entries.map(|e| self.partner_index(e));
+                let pj = j.map(|j| &self.particles[j]);
+                // The pairs' relative states, for a screen that looks at them.
+                let relative = || {
                     let dr = if self.tracks_images() {
                         let dr = entries.map(|e| pair(e).1);
                         lanes3(&dr[0], &dr[1])
@@ -1053,45 +1026,40 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                         dr
                     };
                     let dv = lanes3(&(vel_i - pj[0].vel), &(vel_i - pj[1].vel));
-                    let spin_j = pj.map(|p| p.spin_at(t));
-                    let horizon = j.map(horizon_with);
-                    let (pass, handed_on) = S::may_collide(
-                        &shape_i,
-                        [&pj[0].shape, &pj[1].shape],
-                        &spin_i,
-                        [&spin_j[0], &spin_j[1]],
-                        &dr,
-                        &dv,
-                        t,
-                        Lanes::new(horizon),
-                        GROWS,
-                    );
-                    screened[step] = handed_on;
-                    passed |= (u64::from(pass[0]) | u64::from(pass[1]) << 1) << (2 * step);
-                }
-                passed &= u64::MAX >> (SCREEN_BLOCK - in_block.len());
-                while passed != 0 {
-                    let k = passed.trailing_zeros() as usize;
-                    passed &= passed - 1;
-                    let j = self.partner_index(in_block[k]);
-                    let tau = S::screened_time(&screened[k / 2], k % 2, horizon_with(j));
-                    // Kept by moving the end past it, not by a branch.
-                    found[count] = (tau, (block * SCREEN_BLOCK + k) as u32);
-                    count += usize::from((tau < f64::INFINITY) & !skip(j));
-                }
+                    (dr, dv, pj.map(|p| p.spin_at(t)))
+                };
+                let horizon = Lanes::new(j.map(horizon_with));
+                let (pass, handed_on) = S::Screened::may_collide(
+                    &shape_i,
+                    [&pj[0].shape, &pj[1].shape],
+                    &spin_i,
+                    t,
+                    horizon,
+                    GROWS,
+                    relative,
+                );
+                screened[step] = handed_on;
+                passed |= (u64::from(pass[0]) | u64::from(pass[1]) << 1) << (2 * step);
             }
-        } else {
-            // A contact time for each partner not left out (for shapes without a screen a
-            // contact time is dear).
-            for (k, &entry) in neighbours.iter().enumerate() {
-                if skip(self.partner_index(entry)) {
-                    continue;
-                }
-                let (pj, dr, dv, spin_j, horizon) = pair(entry);
-                let tau =
-                    S::collision_time(&shape_i, &pj.shape, &spin_i, &spin_j, &dr, &dv, t, horizon);
-                found[count] = (tau, k as u32);
-                count += usize::from(tau < f64::INFINITY);
+            passed &= u64::MAX >> (SCREEN_BLOCK - in_block.len());
+            while passed != 0 {
+                let k = passed.trailing_zeros() as usize;
+                passed &= passed - 1;
+                let entry = in_block[k];
+                let j = self.partner_index(entry);
+                // A partner left out is not predicted without a screen (a contact time is
+                // dear then); with one, it is dropped with its time, not by a branch.
+                let unscreened = || {
+                    if skip(j) {
+                        return f64::INFINITY;
+                    }
+                    let (pj, dr, dv, spin_j, horizon) = pair(entry);
+                    S::collision_time(&shape_i, &pj.shape, &spin_i, &spin_j, &dr, &dv, t, horizon)
+                };
+                let tau = screened[k / 2].contact_time(k % 2, horizon_with(j), unscreened);
+                // Kept by moving the end past it, not by a branch.
+                found[count] = (tau, (block * SCREEN_BLOCK + k) as u32);
+                count += usize::from((tau < f64::INFINITY) & !skip(j));
             }
         }
         let found_now = &mut found[..count];
@@ -1143,10 +1111,9 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let p = &self.particles[i];
         let pos = p.position_at(t);
         if B::HAS_WALLS {
-            let contact = if self.shaped_wall_contacts() {
+            let contact = if let Some((own, planes)) = self.shaped_walls() {
                 let spin = p.spin_at(t);
-                self.boundary
-                    .predict_shaped_wall(&pos, &p.vel, &p.shape, &spin, t, max_tau)
+                planes.predict_shaped_wall(&pos, &p.vel, &p.shape, own, &spin, t, max_tau)
             } else {
                 let (r, g) = self.wall_sphere(&p.shape, t);
                 self.boundary.predict_wall(&pos, &p.vel, r, g, max_tau)
@@ -1156,10 +1123,10 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                     .push(i, LocalEvent::new(t + tau, EventKind::Wall(wall)));
             }
         }
-        let exit = if S::ENVELOPES {
-            // Refreshed before every prediction pass of `i` ([`Self::refresh_list_exit`]).
-            Some(self.list_exit[i] - t).filter(|tau| tau.is_finite())
-        } else {
+        // A recorded envelope exit (refreshed before every prediction pass of `i`,
+        // [`Self::refresh_list_exit`]), or when the list sphere is the envelope the time the
+        // bounding sphere leaves it.
+        let exit = S::Envelope::list_update(&self.list_exit, i, t, || {
             let mut q = pos - self.list_spheres[i].centre;
             self.boundary.minimum_image(&mut q);
             let s = self.list_spheres[i].radius - p.shape.bounding_radius(t);
@@ -1170,42 +1137,40 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             } else {
                 exit_ball_time(q.norm_squared(), q.dot(&p.vel), p.vel.norm_squared(), s, g)
             }
-        };
+        });
         if let Some(tau) = exit.filter(|&tau| tau <= max_tau) {
             self.local
                 .push(i, LocalEvent::new(t + tau, EventKind::NeighbourList));
         }
     }
 
-    /// Recomputes `i`'s list exit ([`Self::list_exit_time`]) before a prediction pass of `i`:
-    /// once per pass, not again for a partner whose exit was refreshed earlier in the event.
-    /// Nothing for shapes without [`Collidable::ENVELOPES`].
+    /// Records `i`'s list exit ([`EnvelopeModel::record_exit`]) before a prediction pass of
+    /// `i`: once per pass, not again for a partner whose exit was refreshed earlier in the
+    /// event. Nothing when the list sphere is the envelope (its exit is predicted after the
+    /// pass and bounds no pair).
     #[inline]
     fn refresh_list_exit(&mut self, i: usize) {
-        if S::ENVELOPES {
-            self.list_exit[i] = self.list_exit_time(i);
-        }
-    }
-
-    /// Kernel time up to which particle `i` provably stays inside its envelope
-    /// ([`Collidable::envelope_exit_time`]; `∞` if beyond any window). Shapes with
-    /// [`Collidable::ENVELOPES`] only.
-    fn list_exit_time(&self, i: usize) -> f64 {
         let t = self.time;
-        let p = &self.particles[i];
-        let mut q = p.position_at(t) - self.list_spheres[i].centre;
-        self.boundary.minimum_image(&mut q);
-        let spin = p.spin_at(t);
-        p.shape
-            .envelope_exit_time(&spin, &self.envelopes[i], &q, &p.vel, t)
-            .map_or(f64::INFINITY, |tau| t + tau)
+        let (particles, list_spheres, boundary) =
+            (&self.particles, &self.list_spheres, &self.boundary);
+        let at = || {
+            let p = &particles[i];
+            let mut q = p.position_at(t) - list_spheres[i].centre;
+            boundary.minimum_image(&mut q);
+            (&p.shape, p.spin_at(t), q, p.vel)
+        };
+        S::Envelope::record_exit(&self.envelopes, &mut self.list_exit, i, t, at);
     }
 
-    /// Whether wall contacts go through the shape's own plane contacts: the shape and the
-    /// container allow it and the walls see the whole growth (a fixed choice for spheres).
+    /// The shape's own plane contacts and the container's planes, when wall contacts go
+    /// through them: the shape has them, every wall is a plane, and the walls see the whole
+    /// growth. `None` at compile time for a shape or a container without them (their types
+    /// have no value).
     #[inline]
-    fn shaped_wall_contacts(&self) -> bool {
-        S::SHAPED_PLANE_CONTACT && B::PLANAR_WALLS && self.wall_growth == 1.0
+    fn shaped_walls(&self) -> Option<(S::PlaneContact, &B::Planes)> {
+        let own = S::PlaneContact::own()?;
+        let planes = self.boundary.planes()?;
+        (self.wall_growth == 1.0).then_some((own, planes))
     }
 
     /// The sphere the walls see of `shape` at kernel time `t`: its radius and growth rate.
@@ -1315,9 +1280,11 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     fn collide(&mut self, i: usize, partner: u32, partners_requested: bool) {
         let j = self.partner_index(partner);
         let t = self.time;
-        if self.tracks_images() && j == i {
-            self.collide_with_own_image(i, partner);
-            return;
+        if let Some(tracking) = self.images {
+            if j == i {
+                self.collide_with_own_image(tracking, i, partner);
+                return;
+            }
         }
         let (pi, pj) = (&self.particles[i], &self.particles[j]);
         let dr = self.separation(i, &pi.position_at(t), j, &pj.position_at(t), partner);
@@ -1363,8 +1330,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let n = self.boundary.wall_normal(wall, &p.position_at(t));
         let m = self.mass(p, t);
         let mut spin = p.spin_at(t);
-        let (dv, virial) = if self.shaped_wall_contacts() {
-            p.shape.plane_impulse(&mut spin, &n, &p.vel, t, m)
+        let (dv, virial) = if let Some((own, _)) = self.shaped_walls() {
+            own.impulse(&p.shape, &mut spin, &n, &p.vel, t, m)
         } else {
             let (r, g) = self.wall_sphere(&p.shape, t);
             bounding_sphere_wall_impulse(r, g, &n, &p.vel, m)
@@ -1395,25 +1362,26 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     }
 
     /// Resolves the contact of `i` with its own image `entry`
-    /// ([`Collidable::self_image_impulse`]): only its rotation changes.
-    fn collide_with_own_image(&mut self, i: usize, entry: u32) {
+    /// ([`PeriodicImages::self_image_impulse`], with the licence `tracking` the kernel holds
+    /// while it tracks images): only its rotation changes.
+    fn collide_with_own_image(&mut self, tracking: S::Images, i: usize, entry: u32) {
         let t = self.time;
         let dr = -images::translation(images::shift(entry), &self.period());
         let p = &self.particles[i];
         let m = self.mass(p, t);
         let mut spin = p.spin_at(t);
-        let impulse = p.shape.self_image_impulse(&mut spin, &dr, t, m);
+        let impulse = tracking.self_image_impulse(&p.shape, &mut spin, &dr, t, m);
         self.virial += impulse.dot(&dr);
         self.particles[i].kick(Vec3::zeros(), spin, t);
         self.predict_changed(i);
         self.counters.collisions += 1;
     }
 
-    /// Whether neighbour entries carry image shifts (never for shapes without
-    /// [`Collidable::PERIODIC_IMAGES`]: the test then compiles to `false`).
+    /// Whether neighbour entries carry image shifts (never for shapes without images,
+    /// [`crate::shape::NoImages`]: the test then compiles to `false`).
     #[inline(always)]
     fn tracks_images(&self) -> bool {
-        S::PERIODIC_IMAGES && self.images
+        self.images.is_some()
     }
 
     /// Particle index of a neighbour entry.
@@ -1455,12 +1423,14 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         Vec3::from_fn(|k, _| if periodic[k] { hi[k] - lo[k] } else { 0.0 })
     }
 
-    /// Whether image tracking must be switched on for neighbour-list spheres up to `width` in
-    /// diameter: two of them can then reach half the shortest periodic edge, where minimum
-    /// image stops being exact.
-    fn needs_images(&self, width: f64) -> bool {
-        if !S::PERIODIC_IMAGES || self.images {
-            return false;
+    /// The shape's licence to track images ([`PeriodicImages::tracking`]) if image tracking
+    /// must be switched on for neighbour-list spheres up to `width` in diameter: two of them
+    /// can then reach half the shortest periodic edge, where minimum image stops being
+    /// exact. `None` if it is on already or the shape has no images.
+    fn needs_images(&self, width: f64) -> Option<S::Images> {
+        let tracking = S::Images::tracking()?;
+        if self.images.is_some() {
+            return None;
         }
         let shortest = self
             .period()
@@ -1474,7 +1444,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             "periodic images are tracked for at most {} particles",
             images::MAX_PARTICLES
         );
-        needed
+        needed.then_some(tracking)
     }
 
     /// Adds to `list_i` (`i`'s new list) every image of `j` whose list sphere (and envelope)
@@ -1487,11 +1457,9 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let envelopes = &self.envelopes;
         let list_j = &mut self.neighbours[j];
         images::overlapping_shifts(&d, reach, &period, i == j, |n| {
-            if S::ENVELOPES {
-                let image = d - images::translation(n, &period);
-                if !S::envelopes_overlap(&envelopes[i], &envelopes[j], &image) {
-                    return;
-                }
+            let image = d - images::translation(n, &period);
+            if !S::Envelope::may_overlap(envelopes, i, j, &image) {
+                return;
             }
             let entry = images::encode(j, n);
             list_i.push(entry);

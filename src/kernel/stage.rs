@@ -112,7 +112,7 @@ pub struct Stage {
     /// bounding sphere reaches `(1 − f)·g·τ` into them. 1 (walls see the particle as it is)
     /// for every stage but gap stages (paper 001, Eq. 31), where the grains' true sizes are
     /// those of the stage start and `f = 2·wall gap/Δd`. Shapes with their own plane contacts
-    /// ([`Collidable::SHAPED_PLANE_CONTACT`]) meet walls through their bounding sphere when
+    /// ([`Collidable::PlaneContact`]) meet walls through their bounding sphere when
     /// `f < 1`.
     pub wall_growth: f64,
 }

@@ -53,7 +53,10 @@
 //! the 12 equations of Eq. 29–32 (tested against a direct solve).
 
 use super::quartic::{self, Configuration};
-use super::{first_falling_root, predict_sphere_sphere, Collidable, Growth, Vec3};
+use super::{
+    first_falling_root, predict_sphere_sphere, Collidable, EnvelopeModel, Growth, PeriodicImages,
+    PlaneContact, Rotation, Vec3,
+};
 use nalgebra::{Matrix3, UnitQuaternion};
 use rand::Rng;
 use rand_distr::StandardNormal;
@@ -157,6 +160,22 @@ impl Spin {
 }
 
 impl Ellipsoid {
+    /// The envelope ([`Envelope`]) of the ellipsoid with rotational state `spin` at kernel
+    /// time `t`, centred where it is, with skin width `skin`.
+    #[inline]
+    pub fn envelope(&self, spin: &Spin, t: f64, skin: f64) -> Envelope {
+        let rot = spin.rotation();
+        let (mid, half_length) = self.mid_and_spine_length(t);
+        Envelope {
+            root: self.root_matrix(&rot, t),
+            m: self.shape_matrix(&rot, t),
+            spine: rot.column(self.axes.imax()) * half_length,
+            skin,
+            capsule: mid + skin,
+            half_length,
+        }
+    }
+
     /// An ellipsoid with the given semi-axes (along body x, y, z) that does not grow.
     ///
     /// # Panics
@@ -225,15 +244,16 @@ impl Ellipsoid {
     }
 }
 
-/// Neighbour envelope of an ellipsoid ([`Collidable::Envelope`]): the ellipsoid `E₀` as it was
-/// when its neighbour list was built, thickened by the skin width `δ`, `E₀ ⊕ B(δ)` (all
-/// points within `δ` of `E₀`). It lies inside the list sphere (`E₀` lies inside the bounding
-/// sphere of radius `r₀`, so `E₀ ⊕ B(δ)` inside the ball of radius `r₀ + δ`).
+/// Neighbour envelope of an ellipsoid ([`Collidable::Envelope`], [`EnvelopeModel`]): the
+/// ellipsoid `E₀` as it was when its neighbour list was built, thickened by the skin width
+/// `δ`, `E₀ ⊕ B(δ)` (all points within `δ` of `E₀`). It lies inside the list sphere (`E₀`
+/// lies inside the bounding sphere of radius `r₀`, so `E₀ ⊕ B(δ)` inside the ball of radius
+/// `r₀ + δ`).
 ///
 /// This is the paper's near-neighbour ellipsoid (§4.2, the neighbourhood `N_i` with semi-axes
 /// scaled by `μ`) made certifiable in the sense of Donev et al. (2005): the region is fixed
 /// when the list is built and the particle provably stays in it until its list-update event
-/// ([`Collidable::envelope_exit_time`]). The `μ`-scaled ellipsoid contains `E₀ ⊕ B(δ)` for
+/// ([`EnvelopeModel::record_exit`]). The `μ`-scaled ellipsoid contains `E₀ ⊕ B(δ)` for
 /// `δ = (μ − 1)·a_min` and no more is certified by a rotation bound, so the thickened
 /// ellipsoid is the tighter region for the same guarantee. `δ` follows the kernel's adaptive
 /// skin, which shrinks near jamming (the paper's `μ → 1`).
@@ -510,7 +530,7 @@ struct Pose {
 impl Pose {
     #[inline]
     fn of(shape: &Ellipsoid, spin: &Spin, dt: f64, t: f64) -> Self {
-        let rot = Ellipsoid::spin_after(spin, dt).rotation();
+        let rot = spin.after(dt).rotation();
         let m = shape.shape_matrix(&rot, t);
         Self { rot, m }
     }
@@ -530,7 +550,7 @@ fn support_and_rate(m: &Matrix3<f64>, n: &Vec3, omega: &Vec3, rel: f64) -> (f64,
 /// `M`: `Mn = R·D²·Rᵀn`).
 #[inline]
 fn support_along(shape: &Ellipsoid, spin: &Spin, dt: f64, t: f64, n: &Vec3) -> (f64, f64) {
-    let q = Ellipsoid::spin_after(spin, dt).orientation;
+    let q = spin.after(dt).orientation;
     let body = q.inverse_transform_vector(n);
     let d = shape.semi_axes(t);
     let d2 = d.component_mul(&d);
@@ -1017,47 +1037,10 @@ pub fn ellipsoid_self_image_impulse(
 
 impl Collidable for Ellipsoid {
     type Spin = Spin;
-    const ROTATES: bool = true;
-    const SHAPED_PLANE_CONTACT: bool = true;
-    const PERIODIC_IMAGES: bool = true;
     type Envelope = Envelope;
-    const ENVELOPES: bool = true;
     type Screened = ();
-
-    #[inline]
-    fn envelope(&self, spin: &Spin, t: f64, skin: f64) -> Envelope {
-        let rot = spin.rotation();
-        let (mid, half_length) = self.mid_and_spine_length(t);
-        Envelope {
-            root: self.root_matrix(&rot, t),
-            m: self.shape_matrix(&rot, t),
-            spine: rot.column(self.axes.imax()) * half_length,
-            skin,
-            capsule: mid + skin,
-            half_length,
-        }
-    }
-
-    #[inline]
-    fn envelopes_overlap(a: &Envelope, b: &Envelope, d: &Vec3) -> bool {
-        envelopes_may_overlap(a, b, d)
-    }
-
-    #[inline]
-    fn envelope_exit_time(
-        &self,
-        spin: &Spin,
-        envelope: &Envelope,
-        q: &Vec3,
-        vel: &Vec3,
-        t: f64,
-    ) -> Option<f64> {
-        envelope_exit(self, spin, envelope, q, vel, t)
-    }
-
-    fn self_image_impulse(&self, spin: &mut Spin, dr: &Vec3, t: f64, mass: f64) -> Vec3 {
-        ellipsoid_self_image_impulse(self, spin, dr, t, mass)
-    }
+    type Images = SelfImages;
+    type PlaneContact = SupportPlanes;
 
     fn numerical_failures() -> u64 {
         prediction_failures()
@@ -1109,46 +1092,6 @@ impl Collidable for Ellipsoid {
     }
 
     #[inline]
-    fn spin_after(spin: &Spin, dt: f64) -> Spin {
-        if dt == 0.0 || spin.omega == Vec3::zeros() {
-            return *spin;
-        }
-        // Eq. 10–11: compose with the rotation by |ω|·Δt about ω/|ω| (applied in the world
-        // frame, after the current orientation).
-        // Renormalised so that rounding cannot accumulate over millions of compositions.
-        let q = UnitQuaternion::from_scaled_axis(spin.omega * dt) * spin.orientation;
-        Spin {
-            orientation: UnitQuaternion::new_normalize(q.into_inner()),
-            omega: spin.omega,
-        }
-    }
-
-    fn thermal_spin<R: Rng>(&self, spin: &Spin, mass: f64, kt: f64, t: f64, rng: &mut R) -> Spin {
-        let inertia = self.principal_inertia(mass, t);
-        let body = Vec3::new(
-            rng.sample::<f64, _>(StandardNormal) * (kt / inertia.x).sqrt(),
-            rng.sample::<f64, _>(StandardNormal) * (kt / inertia.y).sqrt(),
-            rng.sample::<f64, _>(StandardNormal) * (kt / inertia.z).sqrt(),
-        );
-        Spin {
-            orientation: spin.orientation,
-            omega: spin.orientation * body,
-        }
-    }
-
-    #[inline]
-    fn rotational_kinetic_twice(&self, spin: &Spin, mass: f64, t: f64) -> f64 {
-        let body = spin.orientation.inverse() * spin.omega;
-        body.component_mul(&body)
-            .dot(&self.principal_inertia(mass, t))
-    }
-
-    #[inline]
-    fn scale_angular_velocity(spin: &mut Spin, factor: f64) {
-        spin.omega *= factor;
-    }
-
-    #[inline]
     fn collision_time(
         a: &Self,
         b: &Self,
@@ -1176,12 +1119,141 @@ impl Collidable for Ellipsoid {
     ) -> Vec3 {
         ellipsoid_pair_impulse(a, b, sa, sb, dr, dv, t, ma, mb)
     }
+}
+
+/// Three rotational freedoms; free flight turns the orientation at the constant `ω`.
+impl Rotation<Ellipsoid> for Spin {
+    const FREEDOMS: u32 = 3;
+
+    #[inline]
+    fn after(&self, dt: f64) -> Spin {
+        let spin = self;
+        if dt == 0.0 || spin.omega == Vec3::zeros() {
+            return *spin;
+        }
+        // Eq. 10–11: compose with the rotation by |ω|·Δt about ω/|ω| (applied in the world
+        // frame, after the current orientation).
+        // Renormalised so that rounding cannot accumulate over millions of compositions.
+        let q = UnitQuaternion::from_scaled_axis(spin.omega * dt) * spin.orientation;
+        Spin {
+            orientation: UnitQuaternion::new_normalize(q.into_inner()),
+            omega: spin.omega,
+        }
+    }
+
+    fn thermal<R: Rng>(&self, shape: &Ellipsoid, mass: f64, kt: f64, t: f64, rng: &mut R) -> Spin {
+        let spin = self;
+        let inertia = shape.principal_inertia(mass, t);
+        let body = Vec3::new(
+            rng.sample::<f64, _>(StandardNormal) * (kt / inertia.x).sqrt(),
+            rng.sample::<f64, _>(StandardNormal) * (kt / inertia.y).sqrt(),
+            rng.sample::<f64, _>(StandardNormal) * (kt / inertia.z).sqrt(),
+        );
+        Spin {
+            orientation: spin.orientation,
+            omega: spin.orientation * body,
+        }
+    }
+
+    #[inline]
+    fn kinetic_twice(&self, shape: &Ellipsoid, mass: f64, t: f64) -> f64 {
+        let body = self.orientation.inverse() * self.omega;
+        body.component_mul(&body)
+            .dot(&shape.principal_inertia(mass, t))
+    }
+
+    #[inline]
+    fn scale_angular_velocity(&mut self, factor: f64) {
+        self.omega *= factor;
+    }
+}
+
+/// Neighbour lists filtered by envelopes (see [`Envelope`]); a particle's list update is its
+/// certified envelope exit, and pair predictions look no further than the earlier exit.
+impl EnvelopeModel<Ellipsoid> for Envelope {
+    #[inline]
+    fn kept(n: usize) -> usize {
+        n
+    }
+
+    #[inline]
+    fn build(envelopes: &mut [Self], i: usize, shape: &Ellipsoid, spin: &Spin, t: f64, skin: f64) {
+        envelopes[i] = shape.envelope(spin, t, skin);
+    }
+
+    #[inline]
+    fn may_overlap(envelopes: &[Self], i: usize, j: usize, d: &Vec3) -> bool {
+        envelopes_may_overlap(&envelopes[i], &envelopes[j], d)
+    }
+
+    #[inline]
+    fn record_exit<'a>(
+        envelopes: &[Self],
+        exits: &mut [f64],
+        i: usize,
+        t: f64,
+        at: impl FnOnce() -> (&'a Ellipsoid, Spin, Vec3, Vec3),
+    ) {
+        let (shape, spin, q, vel) = at();
+        exits[i] = envelope_exit(shape, &spin, &envelopes[i], &q, &vel, t)
+            .map_or(f64::INFINITY, |tau| t + tau);
+    }
+
+    #[inline]
+    fn pair_horizon(exits: &[f64], i: usize, j: usize, t: f64, max_tau: f64) -> f64 {
+        max_tau.min((exits[i].min(exits[j]) - t).max(0.0))
+    }
+
+    #[inline]
+    fn list_update(
+        exits: &[f64],
+        i: usize,
+        t: f64,
+        _list_sphere_exit: impl FnOnce() -> Option<f64>,
+    ) -> Option<f64> {
+        Some(exits[i] - t).filter(|tau| tau.is_finite())
+    }
+}
+
+/// The ellipsoid's licence to track periodic images: a needle may reach more than half a
+/// periodic box edge ([`ellipsoid_self_image_impulse`] resolves contacts with its own images).
+#[derive(Clone, Copy, Debug)]
+pub struct SelfImages;
+
+impl PeriodicImages<Ellipsoid> for SelfImages {
+    #[inline]
+    fn tracking() -> Option<Self> {
+        Some(SelfImages)
+    }
+
+    fn self_image_impulse(
+        self,
+        shape: &Ellipsoid,
+        spin: &mut Spin,
+        dr: &Vec3,
+        t: f64,
+        mass: f64,
+    ) -> Vec3 {
+        ellipsoid_self_image_impulse(shape, spin, dr, t, mass)
+    }
+}
+
+/// The ellipsoid's own plane contacts, by its support function `h(n) = √(nᵀMn)`.
+#[derive(Clone, Copy, Debug)]
+pub struct SupportPlanes;
+
+impl PlaneContact<Ellipsoid> for SupportPlanes {
+    #[inline]
+    fn own() -> Option<Self> {
+        Some(SupportPlanes)
+    }
 
     /// Plane gap `d + (n·v)τ − h(n, τ)` with the support function `h = √(nᵀMn)` (the closed
     /// form of the ellipsoid–plane distance), stepped like the pair prediction; `n` is fixed,
     /// so the steps are exact up to the rotation and growth bound.
-    fn predict_plane_contact(
-        &self,
+    fn predict(
+        self,
+        shape: &Ellipsoid,
         spin: &Spin,
         n: &Vec3,
         distance: f64,
@@ -1190,8 +1262,8 @@ impl Collidable for Ellipsoid {
         max_tau: f64,
     ) -> Option<f64> {
         // Bounding sphere first (most particles are far from every wall).
-        let sphere_rate = self.g - normal_velocity;
-        let s = self.scale_at(t);
+        let sphere_rate = shape.g - normal_velocity;
+        let s = shape.scale_at(t);
         let start = if distance <= s {
             0.0
         } else {
@@ -1200,13 +1272,13 @@ impl Collidable for Ellipsoid {
         if start > max_tau {
             return None;
         }
-        let curvature = support_curvature_bound(self, spin, self.scale_at(t + max_tau));
-        let tolerance = self.contact_tolerance * self.min_semi_axis(t);
+        let curvature = support_curvature_bound(shape, spin, shape.scale_at(t + max_tau));
+        let tolerance = shape.contact_tolerance * shape.min_semi_axis(t);
         let mut tau = start;
         for _ in 0..MAX_STEPS {
-            let pose = Pose::of(self, spin, tau, t + tau);
+            let pose = Pose::of(shape, spin, tau, t + tau);
             let (h, h_rate) =
-                support_and_rate(&pose.m, n, &spin.omega, self.relative_growth(t + tau));
+                support_and_rate(&pose.m, n, &spin.omega, shape.relative_growth(t + tau));
             let gap = distance + normal_velocity * tau - h;
             let rate = normal_velocity - h_rate;
             if gap <= tolerance && rate < 0.0 {
@@ -1227,8 +1299,9 @@ impl Collidable for Ellipsoid {
 
     /// Impulse at the support point `−Mn/h` facing the wall, reflecting its normal velocity
     /// against the growth of the surface there; virial `J·h`.
-    fn plane_impulse(
-        &self,
+    fn impulse(
+        self,
+        shape: &Ellipsoid,
         spin: &mut Spin,
         n: &Vec3,
         vel: &Vec3,
@@ -1236,15 +1309,15 @@ impl Collidable for Ellipsoid {
         mass: f64,
     ) -> (Vec3, f64) {
         let rot = spin.rotation();
-        let m = self.shape_matrix(&rot, t);
+        let m = shape.shape_matrix(&rot, t);
         let mn = m * n;
         let h = n.dot(&mn).sqrt();
         let arm = -mn / h;
         let u = (vel + spin.omega.cross(&arm)).dot(n);
-        let growth = h * self.relative_growth(t);
+        let growth = h * shape.relative_growth(t);
         let u_after = (2.0 * growth - u).max(growth);
         let lever = arm.cross(n);
-        let i_lever = self.inverse_inertia_times(&rot, mass, t, &lever);
+        let i_lever = shape.inverse_inertia_times(&rot, mass, t, &lever);
         let j = (u_after - u) / (1.0 / mass + lever.dot(&i_lever));
         spin.omega += i_lever * j;
         (n * (j / mass), j * h)
@@ -1374,14 +1447,14 @@ mod tests {
                 .expect("a moving body leaves its envelope");
             let later = rng.gen_range(0.0..1.0) * first;
             let q = vel * later;
-            let spin_now = Ellipsoid::spin_after(&spin, later);
+            let spin_now = spin.after(later);
             let Some(tau) = envelope_exit(&shape, &spin_now, &envelope, &q, &vel, t0 + later)
             else {
                 panic!("a moving body leaves its envelope");
             };
             for k in 0..=20 {
                 let dt = later + tau * f64::from(k) / 20.0;
-                let rot = Ellipsoid::spin_after(&spin, dt).rotation();
+                let rot = spin.after(dt).rotation();
                 let m = shape.shape_matrix(&rot, t0 + dt);
                 for _ in 0..50 {
                     let n = random_unit(&mut rng);
@@ -1458,7 +1531,7 @@ mod tests {
             let (shape, spin, _) = random_body(&mut rng);
             let n = random_unit(&mut rng);
             let h = |tau: f64| {
-                let rot = Ellipsoid::spin_after(&spin, tau).rotation();
+                let rot = spin.after(tau).rotation();
                 n.dot(&(shape.shape_matrix(&rot, tau) * n)).sqrt()
             };
             let bound = support_curvature_bound(&shape, &spin, shape.scale_at(0.1));
@@ -1531,7 +1604,7 @@ mod tests {
         let edge = 2.0 / m.try_inverse().unwrap()[(0, 0)].sqrt();
         let dr = -Vec3::x() * edge;
         let mass = 1.3;
-        let energy = |s: &Spin| e.rotational_kinetic_twice(s, mass, 0.0);
+        let energy = |s: &Spin| s.kinetic_twice(&e, mass, 0.0);
         let (pa, n) = contact_point_and_normal(&e, &e, &spin, &spin, &dr, 0.0).unwrap();
         let w = (-dr).cross(&n);
         if spin.omega.dot(&w) > 0.0 {
@@ -1555,13 +1628,13 @@ mod tests {
         let e = Ellipsoid::new(Vec3::new(2.0, 1.0, 1.0));
         let spin = Spin::default();
         // Long axis along the wall normal: the tip touches when the centre is 2 away.
-        let tau = e
-            .predict_plane_contact(&spin, &Vec3::x(), 5.0, -1.5, 0.0, 10.0)
+        let tau = SupportPlanes
+            .predict(&e, &spin, &Vec3::x(), 5.0, -1.5, 0.0, 10.0)
             .unwrap();
         assert!((tau - 2.0).abs() < 1e-12, "{tau}");
         // Moving away: never.
         assert_eq!(
-            e.predict_plane_contact(&spin, &Vec3::x(), 5.0, 0.5, 0.0, 10.0),
+            SupportPlanes.predict(&e, &spin, &Vec3::x(), 5.0, 0.5, 0.0, 10.0),
             None
         );
     }
@@ -1589,8 +1662,8 @@ mod tests {
                 .sqrt();
             distance + u * tau - half
         };
-        let predicted = e
-            .predict_plane_contact(&spin, &n, distance, u, 0.0, 20.0)
+        let predicted = SupportPlanes
+            .predict(&e, &spin, &n, distance, u, 0.0, 20.0)
             .unwrap();
         let first = (1..=200_000)
             .map(|i| i as f64 * 1e-4)

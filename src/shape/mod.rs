@@ -10,22 +10,18 @@
 //! time barrier). At every barrier the kernel calls [`Collidable::rebase`] so that the stored
 //! size refers to the new origin and `t` stays small (precision does not decay in long runs).
 
-mod ellipsoid;
+pub mod ellipsoid;
 pub mod quartic;
 mod sphere;
 
-pub use ellipsoid::{
-    contact_point_and_normal, ellipsoid_pair_impulse, ellipsoid_self_image_impulse,
-    predict_ellipsoid_pair, prediction_failures, support_curvature_bound, Ellipsoid, Envelope,
-    Predictor, Spin, CONTACT_TOLERANCE, MAX_CONTACT_TOLERANCE, MAX_STEPS,
-};
+pub use ellipsoid::Ellipsoid;
 pub use sphere::{predict_sphere_sphere, GapQuadratic, Sphere};
 
 /// Three-vector of `f64`, the only vector type of the kernel.
 pub type Vec3 = nalgebra::Vector3<f64>;
 
 /// Two `f64` lanes, one pair of particles per lane: the prediction pass screens two
-/// neighbours with one packed instruction per operation ([`Collidable::may_collide`]).
+/// neighbours with one packed instruction per operation ([`PairScreen::may_collide`]).
 /// Lane arithmetic is IEEE arithmetic on each lane, so a lane holds exactly the number the
 /// same scalar operations give.
 pub type Lanes = wide::f64x2;
@@ -90,84 +86,48 @@ impl Growth {
 /// with zero impulse, which the sphere never needs); predictions are symmetric under swapping
 /// the two particles with `dr → −dr`, `dv → −dv`.
 ///
-/// # Rotation
-/// A shape whose orientation matters carries a [`Collidable::Spin`]: its orientation at the
-/// particle's update time and its angular velocity, advanced with the delayed state
-/// ([`Collidable::spin_after`]), handed to the predictions at the prediction time and changed
-/// by the collision impulse. Shapes without orientation (the sphere) use `()` and keep the
-/// default methods: after monomorphisation a sphere kernel stores and computes nothing for
-/// rotation, and its trajectories are bit-identical to a kernel without the notion.
+/// # Capabilities
+/// What a shape may do beyond the bounding-sphere picture is named by an associated type
+/// each, whose trait carries the methods of that capability, all of them required:
+///
+/// | type | trait | neutral (the sphere) | meaning of the neutral |
+/// |---|---|---|---|
+/// | [`Collidable::Spin`] | [`Rotation`] | `()` | no orientation, no rotational freedoms |
+/// | [`Collidable::Envelope`] | [`EnvelopeModel`] | `()` | the neighbour-list sphere is the envelope |
+/// | [`Collidable::Screened`] | [`PairScreen`] | `()` | every pair passes to [`Collidable::collision_time`] |
+/// | [`Collidable::Images`] | [`PeriodicImages`] | [`NoImages`] | never reaches half a box edge |
+/// | [`Collidable::PlaneContact`] | [`PlaneContact`] | [`NoPlaneContact`] | meets walls through its bounding sphere |
+///
+/// A shape that lacks a capability names the neutral type; the kernel calls the capability's
+/// methods without knowing which it got. The neutrals' methods are constants or empty, so
+/// after monomorphisation a sphere kernel stores and computes nothing for a capability it
+/// lacks (its trajectories are bit-identical to a kernel without the notion). Where the
+/// kernel has no sensible call to make without the capability (a contact with the
+/// particle's own image, a shaped wall contact) the neutral has no value at all
+/// ([`NoImages`], [`NoPlaneContact`]): the kernel reaches that code only through a value of
+/// the type, so the compiler proves the neutral's methods are never called.
 pub trait Collidable: Clone + Send + Sync + 'static {
-    /// Rotational state: orientation (at the particle's update time) and angular velocity.
-    /// `()` for shapes without orientation.
-    type Spin: Copy + Default + std::fmt::Debug + Send + Sync + 'static;
-    /// Whether the shape has rotational kinetic energy (3 more degrees of freedom per
-    /// particle for the thermostat and the energy).
-    const ROTATES: bool = false;
-    /// Whether the shape predicts and resolves its own contacts with flat walls
-    /// ([`Collidable::predict_plane_contact`], [`Collidable::plane_impulse`]). Otherwise the
-    /// container treats it through its bounding sphere (exact for spheres, conservative for
-    /// other shapes).
-    const SHAPED_PLANE_CONTACT: bool = false;
-    /// Whether a particle may reach more than half a periodic box edge, so that it can touch
-    /// several periodic images of a partner, and its own images. The kernel then tracks which
-    /// image each neighbour is (only when the box is that small, decided at barriers) and
-    /// resolves contacts with the particle's own images by
-    /// [`Collidable::self_image_impulse`]. `false` (the sphere: scenes keep spheres below half
-    /// the box) compiles image handling out of the kernel.
-    const PERIODIC_IMAGES: bool = false;
-
+    /// Rotational state: orientation (at the particle's update time) and angular velocity,
+    /// advanced with the delayed state ([`Rotation::after`]), handed to the predictions at
+    /// the prediction time and changed by the collision impulse. `()` for shapes without
+    /// orientation (zero rotational freedoms).
+    type Spin: Rotation<Self>;
     /// What a particle's neighbour *envelope* remembers of the particle when its list was
-    /// built (`()` for shapes whose envelope is the kernel's neighbour-list sphere).
-    ///
-    /// The kernel gives every particle a neighbour-list sphere (centre `c₀`, radius
-    /// `R = r₀ + δ`, `r₀` the bounding radius when the list was built, `δ` the skin width)
-    /// and keeps the particle inside it until its list-update event. A shape with
-    /// [`Collidable::ENVELOPES`] keeps it inside a tighter region that lies within that
-    /// sphere (its *envelope*) instead, and two particles are neighbours only if their
-    /// spheres and their envelopes overlap. Two particles outside each other's envelopes
-    /// cannot touch before one of them updates its list.
-    type Envelope: Copy
-        + Default
-        + std::fmt::Debug
-        + Send
-        + Sync
-        + serde::Serialize
-        + serde::de::DeserializeOwned
-        + 'static;
-    /// Whether neighbour lists are filtered by [`Collidable::envelopes_overlap`] (with
-    /// `false`, the sphere, the filter and the envelope array compile out of the kernel).
-    const ENVELOPES: bool = false;
-
-    /// The envelope of a particle at kernel time `t` with rotational state `spin` at `t`,
-    /// centred where the particle is (the list centre) with skin width `skin` (length,
-    /// `R − r₀` of its neighbour-list sphere). It must lie inside the list sphere.
-    #[inline]
-    fn envelope(&self, _spin: &Self::Spin, _t: f64, _skin: f64) -> Self::Envelope {
-        Self::Envelope::default()
-    }
-    /// Whether envelopes `a` and `b` whose centres are `d = c₀_a − c₀_b` apart (the image
-    /// the kernel considers) may overlap. May answer `true` for disjoint envelopes (a longer
-    /// list), never `false` for overlapping ones.
-    #[inline]
-    fn envelopes_overlap(_a: &Self::Envelope, _b: &Self::Envelope, _d: &Vec3) -> bool {
-        true
-    }
-    /// Time `τ ≥ 0` after `t` up to which the particle provably stays inside its envelope
-    /// (and hence its list sphere), or `None` if it stays inside beyond any window.
-    /// `q = c(t) − c₀` (minimum image), `vel` its velocity, `spin` its rotational state at
-    /// `t`. Only called when [`Collidable::ENVELOPES`] (the kernel otherwise computes when the
-    /// bounding sphere leaves the list sphere, [`exit_ball_time`]).
-    fn envelope_exit_time(
-        &self,
-        _spin: &Self::Spin,
-        _envelope: &Self::Envelope,
-        _q: &Vec3,
-        _vel: &Vec3,
-        _t: f64,
-    ) -> Option<f64> {
-        unreachable!("only shapes with ENVELOPES have envelope events")
-    }
+    /// built, and how the kernel's lists and list updates use it ([`EnvelopeModel`]). `()`:
+    /// the neighbour-list sphere is the envelope.
+    type Envelope: EnvelopeModel<Self>;
+    /// What the screen of two pairs hands on to the contact times of those that pass
+    /// ([`PairScreen`]): a sphere pair's gap quadratic ([`GapQuadratic`]); `()` for shapes
+    /// that do not screen (every pair passes, and its time is [`Collidable::collision_time`]).
+    type Screened: PairScreen<Self>;
+    /// Whether and how a particle that reaches half a periodic box edge meets its own
+    /// images ([`PeriodicImages`]). [`NoImages`] for shapes that never do (scenes keep
+    /// spheres below half the box): image handling compiles out of the kernel.
+    type Images: PeriodicImages<Self>;
+    /// The shape's own contacts with flat walls ([`PlaneContact`]). [`NoPlaneContact`]: the
+    /// container meets the shape through its bounding sphere (exact for spheres,
+    /// conservative for other shapes).
+    type PlaneContact: PlaneContact<Self>;
 
     /// Numerical failures of this shape's predictions on the current thread so far (a
     /// monotone counter; a prediction that gave up and answered conservatively). The kernel
@@ -198,33 +158,6 @@ pub trait Collidable: Clone + Send + Sync + 'static {
     /// (used to scale a seeding to a requested packing fraction).
     fn scale(&mut self, factor: f64);
 
-    /// The rotational state `dt` later (free flight: constant angular velocity).
-    #[inline]
-    fn spin_after(spin: &Self::Spin, _dt: f64) -> Self::Spin {
-        *spin
-    }
-    /// Random angular velocity of temperature `kt` for a particle of mass `mass` at time `t`,
-    /// keeping the orientation of `spin`.
-    #[inline]
-    fn thermal_spin<R: rand::Rng>(
-        &self,
-        spin: &Self::Spin,
-        _mass: f64,
-        _kt: f64,
-        _t: f64,
-        _rng: &mut R,
-    ) -> Self::Spin {
-        *spin
-    }
-    /// Twice the rotational kinetic energy `ωᵀIω` at time `t` for mass `mass`.
-    #[inline]
-    fn rotational_kinetic_twice(&self, _spin: &Self::Spin, _mass: f64, _t: f64) -> f64 {
-        0.0
-    }
-    /// Multiplies the angular velocity by `factor` (thermostat).
-    #[inline]
-    fn scale_angular_velocity(_spin: &mut Self::Spin, _factor: f64) {}
-
     /// First contact time `τ ∈ [0, max_tau]` after time `t` of particles `a` and `b`, whose
     /// centres are at relative position `dr = c_a − c_b` (minimum image) and relative velocity
     /// `dv = v_a − v_b` at time `t`, with rotational states `sa`, `sb` at time `t`; `+∞` if
@@ -243,46 +176,6 @@ pub trait Collidable: Clone + Send + Sync + 'static {
         t: f64,
         max_tau: f64,
     ) -> f64;
-    /// What the screen of two pairs ([`Collidable::may_collide`]) hands on to the contact
-    /// times of those that pass ([`Collidable::screened_time`]): the numbers of both pairs
-    /// that their times need, computed once (`()` for shapes that do not screen).
-    type Screened: Copy + Default;
-    /// Whether the shape screens pairs ([`Collidable::may_collide`] is more than the
-    /// default): without, the kernel skips the screen and its pass, and a pair's relative
-    /// state (for rotating shapes not cheap) is computed once.
-    const SCREENS_PAIRS: bool = false;
-    /// Whether `a` and `b[k]` may touch within `[0, max_tau[k]]` (the arguments of
-    /// [`Self::collision_time`], two pairs at once: pair `k` in lane `k` of `dr`, `dv` and
-    /// `max_tau`), and what their contact times then need: a cheap screen that the
-    /// kernel's prediction pass runs on every neighbour, asking [`Self::screened_time`]
-    /// only for those that pass. It may pass a pair that then does not meet, but must never
-    /// reject one that [`Self::collision_time`] gives a time, and each lane's answer depends
-    /// on that lane alone. `grows`: whether any particle may grow; `false` promises that
-    /// every growth rate is zero (the kernel knows it for each barrier interval), so that
-    /// the screen can leave the growth terms out. The default passes every pair (and is not
-    /// called unless [`Collidable::SCREENS_PAIRS`]).
-    #[allow(clippy::too_many_arguments)]
-    #[inline]
-    fn may_collide(
-        _a: &Self,
-        _b: [&Self; 2],
-        _sa: &Self::Spin,
-        _sb: [&Self::Spin; 2],
-        _dr: &Lanes3,
-        _dv: &Lanes3,
-        _t: f64,
-        _max_tau: Lanes,
-        _grows: bool,
-    ) -> ([bool; 2], Self::Screened) {
-        ([true; 2], Self::Screened::default())
-    }
-    /// The contact time of the pair in lane `lane` of a screen that it passed, from what
-    /// [`Collidable::may_collide`] handed on, with the same horizon: bit for bit
-    /// [`Self::collision_time`] of the pair. Shapes with [`Collidable::SCREENS_PAIRS`] only.
-    #[inline]
-    fn screened_time(_screened: &Self::Screened, _lane: usize, _max_tau: f64) -> f64 {
-        unreachable!("only shapes with SCREENS_PAIRS hand on screened pairs")
-    }
     /// Resolves a contact at time `t`: returns the linear impulse on `a` (the impulse on `b`
     /// is its negative) for masses `ma`, `mb`, and applies the angular part to `sa`, `sb`.
     /// Elastic in the frame of the growing surfaces: the normal gap velocity is reflected, so
@@ -299,55 +192,298 @@ pub trait Collidable: Clone + Send + Sync + 'static {
         ma: f64,
         mb: f64,
     ) -> Vec3;
+}
 
-    /// Resolves a contact at time `t` of a particle (mass `mass`) with its own periodic image
-    /// displaced by `−dr` (`dr = c − c_image`, a lattice vector): the particle touches the image
-    /// at `+(−dr)` with one point of its surface and, by periodicity, the image at `+dr` with
-    /// another, receiving opposite impulses at the two points. Its linear momentum is
-    /// unchanged; the angular part is applied to `spin`. Returns the impulse at the first
-    /// contact (for the virial `J·dr`). Only called when [`Collidable::PERIODIC_IMAGES`].
-    fn self_image_impulse(&self, _spin: &mut Self::Spin, _dr: &Vec3, _t: f64, _mass: f64) -> Vec3 {
-        unreachable!("only shapes with PERIODIC_IMAGES meet their own images")
+/// The rotational state of a shape `S` ([`Collidable::Spin`]): orientation and angular
+/// velocity, stored like the centre by its value at kernel time 0 and advanced in free
+/// flight. `()` is the state of a shape whose orientation does not matter: no rotational
+/// freedoms, nothing stored, nothing computed.
+pub trait Rotation<S>: Copy + Default + std::fmt::Debug + Send + Sync + 'static {
+    /// Rotational degrees of freedom per particle, which the thermostat and the energy
+    /// count besides the three of translation (0 for `()`: the kernel's rotational
+    /// thermostat and energy then compile out).
+    const FREEDOMS: u32;
+    /// The rotational state `dt` later (free flight: constant angular velocity).
+    fn after(&self, dt: f64) -> Self;
+    /// Random angular velocity of temperature `kt` for a particle of shape `shape` and mass
+    /// `mass` at time `t`, keeping the orientation.
+    fn thermal<R: rand::Rng>(&self, shape: &S, mass: f64, kt: f64, t: f64, rng: &mut R) -> Self;
+    /// Twice the rotational kinetic energy `ωᵀIω` of a particle of shape `shape` and mass
+    /// `mass` at time `t`.
+    fn kinetic_twice(&self, shape: &S, mass: f64, t: f64) -> f64;
+    /// Multiplies the angular velocity by `factor` (thermostat).
+    fn scale_angular_velocity(&mut self, factor: f64);
+}
+
+/// No orientation: the sphere's rotational state.
+impl<S> Rotation<S> for () {
+    const FREEDOMS: u32 = 0;
+    #[inline(always)]
+    fn after(&self, _dt: f64) -> Self {}
+    #[inline(always)]
+    fn thermal<R: rand::Rng>(&self, _: &S, _: f64, _: f64, _: f64, _: &mut R) -> Self {}
+    #[inline(always)]
+    fn kinetic_twice(&self, _: &S, _: f64, _: f64) -> f64 {
+        0.0
     }
+    #[inline(always)]
+    fn scale_angular_velocity(&mut self, _factor: f64) {}
+}
 
+/// A shape's neighbour envelopes ([`Collidable::Envelope`]): what a particle's neighbour list
+/// remembers of the particle beyond its list sphere, and how lists and list updates use it.
+///
+/// The kernel gives every particle a neighbour-list sphere (centre `c₀`, radius
+/// `R = r₀ + δ`, `r₀` the bounding radius when the list was built, `δ` the skin width) and
+/// keeps the particle inside it until its list-update event. A model with envelopes keeps
+/// it inside a tighter region that lies within that sphere (its *envelope*) instead: two
+/// particles are neighbours only if their spheres and their envelopes overlap, the
+/// list-update event is the time the particle provably leaves its envelope (its *exit*,
+/// recorded before each of its prediction passes), and pair predictions look no further
+/// than the earlier exit of the two (whichever updates first predicts the pair again).
+///
+/// The kernel owns one array of envelopes and one of exit times (kernel times), both
+/// [`EnvelopeModel::kept`] long, and touches them only through these methods. `()`, the
+/// neutral, is the neighbour-list sphere itself: it keeps no arrays, passes every pair the
+/// spheres pass, leaves the pair horizons alone and updates a list when the bounding
+/// sphere leaves the list sphere (the kernel's own prediction, which it hands in).
+pub trait EnvelopeModel<S: Collidable>:
+    Copy
+    + Default
+    + std::fmt::Debug
+    + Send
+    + Sync
+    + serde::Serialize
+    + serde::de::DeserializeOwned
+    + 'static
+{
+    /// How many envelopes (and exit times) the kernel keeps for `n` particles: `n`, or 0 when
+    /// the list sphere is the envelope.
+    fn kept(n: usize) -> usize;
+    /// Builds particle `i`'s envelope in `envelopes`: the particle of shape `shape` with
+    /// rotational state `spin` at kernel time `t`, centred where the particle is (the list
+    /// centre), with skin width `skin` (length, `R − r₀` of its neighbour-list sphere). It
+    /// must lie inside the list sphere.
+    fn build(envelopes: &mut [Self], i: usize, shape: &S, spin: &S::Spin, t: f64, skin: f64);
+    /// Whether the envelopes of particles `i` and `j`, whose centres are `d = c₀_i − c₀_j`
+    /// apart (the image the kernel considers), may overlap. May answer `true` for disjoint
+    /// envelopes (a longer list), never `false` for overlapping ones.
+    fn may_overlap(envelopes: &[Self], i: usize, j: usize, d: &Vec3) -> bool;
+    /// Records in `exits[i]` the kernel time up to which particle `i` provably stays inside
+    /// its envelope (and hence its list sphere), `+∞` if beyond any window. `at` gives the
+    /// particle at kernel time `t`: its shape, its rotational state, its offset `q = c(t) − c₀`
+    /// from the list centre (minimum image) and its velocity; it is called only by models
+    /// that record exits.
+    fn record_exit<'a>(
+        envelopes: &[Self],
+        exits: &mut [f64],
+        i: usize,
+        t: f64,
+        at: impl FnOnce() -> (&'a S, S::Spin, Vec3, Vec3),
+    ) where
+        S: 'a;
+    /// The horizon `τ ≤ max_tau` of a prediction of the pair `i`, `j` at kernel time `t`:
+    /// no further than the earlier recorded exit of the two (`max_tau` when no exits are
+    /// recorded).
+    fn pair_horizon(exits: &[f64], i: usize, j: usize, t: f64, max_tau: f64) -> f64;
+    /// Time `τ ≥ 0` after `t` of particle `i`'s list update, `None` if beyond any window:
+    /// its recorded exit, or for the neutral `list_sphere_exit`, when its bounding sphere
+    /// leaves its list sphere.
+    fn list_update(
+        exits: &[f64],
+        i: usize,
+        t: f64,
+        list_sphere_exit: impl FnOnce() -> Option<f64>,
+    ) -> Option<f64>;
+}
+
+/// The neighbour-list sphere is the envelope.
+impl<S: Collidable> EnvelopeModel<S> for () {
+    #[inline(always)]
+    fn kept(_n: usize) -> usize {
+        0
+    }
+    #[inline(always)]
+    fn build(_: &mut [Self], _: usize, _: &S, _: &S::Spin, _: f64, _: f64) {}
+    #[inline(always)]
+    fn may_overlap(_: &[Self], _: usize, _: usize, _: &Vec3) -> bool {
+        true
+    }
+    #[inline(always)]
+    fn record_exit<'a>(
+        _: &[Self],
+        _: &mut [f64],
+        _: usize,
+        _: f64,
+        _: impl FnOnce() -> (&'a S, S::Spin, Vec3, Vec3),
+    ) where
+        S: 'a,
+    {
+    }
+    #[inline(always)]
+    fn pair_horizon(_: &[f64], _: usize, _: usize, _: f64, max_tau: f64) -> f64 {
+        max_tau
+    }
+    #[inline(always)]
+    fn list_update(
+        _: &[f64],
+        _: usize,
+        _: f64,
+        list_sphere_exit: impl FnOnce() -> Option<f64>,
+    ) -> Option<f64> {
+        list_sphere_exit()
+    }
+}
+
+/// A cheap screen before the contact times ([`Collidable::Screened`]): the value is what the
+/// screen of two pairs hands on to the contact times of those that pass, computed once.
+///
+/// The kernel's prediction pass screens every neighbour, two per step, and asks for a
+/// contact time only for those that pass. `()`, the neutral, passes every pair and times
+/// it with [`Collidable::collision_time`].
+pub trait PairScreen<S: Collidable>: Copy + Default {
+    /// Whether `a` and `b[k]` may touch within `[0, max_tau[k]]` (the arguments of
+    /// [`Collidable::collision_time`], two pairs at once: pair `k` in lane `k` of `max_tau`
+    /// and of the relative position `dr` and velocity `dv` that `relative` returns, with the
+    /// partners' rotational states), and what their contact times then need. It may pass a
+    /// pair that then does not meet, but must never reject one that
+    /// [`Collidable::collision_time`] gives a time, and each lane's answer depends on that
+    /// lane alone. `grows`: whether any particle may grow; `false` promises that every
+    /// growth rate is zero (the kernel knows it for each barrier interval), so that the
+    /// screen can leave the growth terms out. `relative` is computed only if the screen
+    /// calls it: a screen that passes every pair costs the kernel nothing (for a rotating
+    /// shape the partners' states are not cheap).
+    fn may_collide(
+        a: &S,
+        b: [&S; 2],
+        sa: &S::Spin,
+        t: f64,
+        max_tau: Lanes,
+        grows: bool,
+        relative: impl FnOnce() -> (Lanes3, Lanes3, [S::Spin; 2]),
+    ) -> ([bool; 2], Self);
+    /// The contact time of the pair in lane `lane` of a screen that it passed, with the
+    /// horizon `max_tau` of the screen: bit for bit [`Collidable::collision_time`] of the
+    /// pair, which `unscreened` computes from the pair's state (a screen that hands on what
+    /// the time needs does not call it).
+    fn contact_time(&self, lane: usize, max_tau: f64, unscreened: impl FnOnce() -> f64) -> f64;
+}
+
+/// No screen: every pair passes, and its time is [`Collidable::collision_time`].
+impl<S: Collidable> PairScreen<S> for () {
+    #[inline(always)]
+    fn may_collide(
+        _: &S,
+        _: [&S; 2],
+        _: &S::Spin,
+        _: f64,
+        _: Lanes,
+        _: bool,
+        _: impl FnOnce() -> (Lanes3, Lanes3, [S::Spin; 2]),
+    ) -> ([bool; 2], Self) {
+        ([true; 2], ())
+    }
+    #[inline(always)]
+    fn contact_time(&self, _: usize, _: f64, unscreened: impl FnOnce() -> f64) -> f64 {
+        unscreened()
+    }
+}
+
+/// Contacts with periodic images ([`Collidable::Images`]) of a shape that may reach more
+/// than half a periodic box edge, so that it can touch several images of a partner and its
+/// own images. The kernel then tracks which image each neighbour is (switched on for good
+/// at the barrier where list spheres reach half the shortest periodic edge) and resolves a
+/// contact with the particle's own image by [`PeriodicImages::self_image_impulse`].
+///
+/// A value of the type is the licence to track images ([`PeriodicImages::tracking`]);
+/// the kernel keeps it once tracking is on. [`NoImages`], the neutral, has no value: the
+/// kernel's image branches are then constant `false` and compile out.
+pub trait PeriodicImages<S: Collidable>: Copy + Send + Sync + 'static {
+    /// The licence to track images, `None` for a shape that never reaches half a box edge.
+    fn tracking() -> Option<Self>;
+    /// Resolves a contact at time `t` of a particle of shape `shape` (mass `mass`) with its
+    /// own periodic image displaced by `−dr` (`dr = c − c_image`, a lattice vector): the
+    /// particle touches the image at `+(−dr)` with one point of its surface and, by
+    /// periodicity, the image at `+dr` with another, receiving opposite impulses at the two
+    /// points. Its linear momentum is unchanged; the angular part is applied to `spin`.
+    /// Returns the impulse at the first contact (for the virial `J·dr`).
+    fn self_image_impulse(
+        self,
+        shape: &S,
+        spin: &mut S::Spin,
+        dr: &Vec3,
+        t: f64,
+        mass: f64,
+    ) -> Vec3;
+}
+
+/// The images of a shape that never reaches half a periodic box edge (the sphere): it never
+/// touches two images of a partner nor its own, so there is nothing to track. No value.
+#[derive(Clone, Copy, Debug)]
+pub enum NoImages {}
+
+impl<S: Collidable> PeriodicImages<S> for NoImages {
+    #[inline(always)]
+    fn tracking() -> Option<Self> {
+        None
+    }
+    fn self_image_impulse(self, _: &S, _: &mut S::Spin, _: &Vec3, _: f64, _: f64) -> Vec3 {
+        match self {}
+    }
+}
+
+/// A shape's own contacts with flat walls ([`Collidable::PlaneContact`]), used when the
+/// container's walls are all planes ([`crate::boundary::Boundary::planes`]) and the walls
+/// see the whole growth; otherwise the container meets the shape through its bounding
+/// sphere. A value of the type is the licence ([`PlaneContact::own`]); [`NoPlaneContact`],
+/// the neutral, has none, and the shaped wall code compiles out.
+pub trait PlaneContact<S: Collidable>: Copy + Send + Sync + 'static {
+    /// The licence to ask the shape for its plane contacts, `None` for the bounding sphere.
+    fn own() -> Option<Self>;
     /// First time `τ ∈ [0, max_tau]` after `t` at which the particle touches the plane with
     /// unit normal `n` (pointing from the plane into the container) at signed distance
     /// `distance` from its centre, approached by the centre at normal velocity `n·v`
-    /// (`normal_velocity`). Default: the bounding sphere.
-    #[inline]
-    fn predict_plane_contact(
-        &self,
-        _spin: &Self::Spin,
-        _n: &Vec3,
+    /// (`normal_velocity`).
+    #[allow(clippy::too_many_arguments)]
+    fn predict(
+        self,
+        shape: &S,
+        spin: &S::Spin,
+        n: &Vec3,
         distance: f64,
         normal_velocity: f64,
         t: f64,
         max_tau: f64,
-    ) -> Option<f64> {
-        let rate = self.bounding_growth_rate() - normal_velocity;
-        let tau = ((distance - self.bounding_radius(t)) / rate).max(0.0);
-        (rate > 0.0 && tau <= max_tau).then_some(tau)
-    }
+    ) -> Option<f64>;
     /// Resolves a contact with a plane of unit normal `n` (into the container) at time `t`:
     /// returns the velocity change of the centre and the virial `J·ℓ` (impulse times the
     /// distance from the centre to the plane), and applies the angular part to `spin`.
-    /// Default: the bounding sphere.
-    #[inline]
-    fn plane_impulse(
-        &self,
-        _spin: &mut Self::Spin,
+    fn impulse(
+        self,
+        shape: &S,
+        spin: &mut S::Spin,
         n: &Vec3,
         vel: &Vec3,
         t: f64,
         mass: f64,
-    ) -> (Vec3, f64) {
-        bounding_sphere_wall_impulse(
-            self.bounding_radius(t),
-            self.bounding_growth_rate(),
-            n,
-            vel,
-            mass,
-        )
+    ) -> (Vec3, f64);
+}
+
+/// No plane contacts of its own: the container meets the shape through its bounding sphere
+/// (exact for the sphere). No value.
+#[derive(Clone, Copy, Debug)]
+pub enum NoPlaneContact {}
+
+impl<S: Collidable> PlaneContact<S> for NoPlaneContact {
+    #[inline(always)]
+    fn own() -> Option<Self> {
+        None
+    }
+    fn predict(self, _: &S, _: &S::Spin, _: &Vec3, _: f64, _: f64, _: f64, _: f64) -> Option<f64> {
+        match self {}
+    }
+    fn impulse(self, _: &S, _: &mut S::Spin, _: &Vec3, _: &Vec3, _: f64, _: f64) -> (Vec3, f64) {
+        match self {}
     }
 }
 

@@ -1,6 +1,9 @@
 //! The growing hard sphere.
 
-use super::{first_falling_root, Collidable, Growth, Lanes, Lanes3, Vec3};
+use super::{
+    first_falling_root, Collidable, Growth, Lanes, Lanes3, NoImages, NoPlaneContact, PairScreen,
+    Vec3,
+};
 use std::f64::consts::PI;
 use wide::{CmpGe, CmpLe, CmpLt};
 
@@ -56,7 +59,7 @@ pub fn sphere_contact_time(sigma: f64, growth: f64, dr: &Vec3, dv: &Vec3, max_ta
 /// Eq. 22), of one pair (`T = f64`) or of two, one per lane (`T = Lanes`). One formula
 /// ([`GapQuadratic::of`]) for the contact time and the two-lane screen
 /// (`sphere_contact_possible`), which hands its lanes on to the contact times of those that
-/// pass ([`Collidable::screened_time`]): they need no second look at the pair (index, state,
+/// pass ([`PairScreen::contact_time`]): they need no second look at the pair (index, state,
 /// minimum image), and the handed-on time is the same number the scalar path computes.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct GapQuadratic<T = f64> {
@@ -205,6 +208,9 @@ fn pick(condition: bool, x: f64, y: f64) -> f64 {
 impl Collidable for Sphere {
     type Spin = ();
     type Envelope = ();
+    type Screened = GapQuadratic<Lanes>;
+    type Images = NoImages;
+    type PlaneContact = NoPlaneContact;
 
     #[inline]
     fn bounding_radius(&self, t: f64) -> f64 {
@@ -256,36 +262,6 @@ impl Collidable for Sphere {
         sphere_contact_time(a.radius(t) + b.radius(t), a.g + b.g, dr, dv, max_tau)
     }
 
-    type Screened = GapQuadratic<Lanes>;
-    const SCREENS_PAIRS: bool = true;
-
-    #[inline]
-    fn may_collide(
-        a: &Self,
-        b: [&Self; 2],
-        _: &(),
-        _: [&(); 2],
-        dr: &Lanes3,
-        dv: &Lanes3,
-        t: f64,
-        max_tau: Lanes,
-        grows: bool,
-    ) -> ([bool; 2], GapQuadratic<Lanes>) {
-        // Without growth `r(t) = r0` exactly (`r0 + 0·t`), and the rates are not loaded.
-        if !grows {
-            let sigma = Lanes::splat(a.r0) + Lanes::new([b[0].r0, b[1].r0]);
-            return sphere_contact_possible(sigma, None, dr, dv, max_tau);
-        }
-        let sigma = Lanes::splat(a.radius(t)) + Lanes::new([b[0].radius(t), b[1].radius(t)]);
-        let growth = Lanes::splat(a.g) + Lanes::new([b[0].g, b[1].g]);
-        sphere_contact_possible(sigma, Some(growth), dr, dv, max_tau)
-    }
-
-    #[inline]
-    fn screened_time(gaps: &GapQuadratic<Lanes>, lane: usize, max_tau: f64) -> f64 {
-        gaps.lane(lane).contact_time(max_tau)
-    }
-
     #[inline]
     fn collision_impulse(
         a: &Self,
@@ -308,6 +284,37 @@ impl Collidable for Sphere {
         let u_after = (2.0 * growth - u).max(growth * sigma / dist);
         let reduced_mass = ma * mb / (ma + mb);
         n * (reduced_mass * (u_after - u))
+    }
+}
+
+/// The sphere's screen (`sphere_contact_possible`) hands on the two pairs' gap quadratics,
+/// and a pair that passes is timed from its quadratic (the very numbers
+/// [`Collidable::collision_time`] computes), so the pair is not looked at again.
+impl PairScreen<Sphere> for GapQuadratic<Lanes> {
+    #[inline]
+    fn may_collide(
+        a: &Sphere,
+        b: [&Sphere; 2],
+        _: &(),
+        t: f64,
+        max_tau: Lanes,
+        grows: bool,
+        relative: impl FnOnce() -> (Lanes3, Lanes3, [(); 2]),
+    ) -> ([bool; 2], GapQuadratic<Lanes>) {
+        let (dr, dv, _) = relative();
+        // Without growth `r(t) = r0` exactly (`r0 + 0·t`), and the rates are not loaded.
+        if !grows {
+            let sigma = Lanes::splat(a.r0) + Lanes::new([b[0].r0, b[1].r0]);
+            return sphere_contact_possible(sigma, None, &dr, &dv, max_tau);
+        }
+        let sigma = Lanes::splat(a.radius(t)) + Lanes::new([b[0].radius(t), b[1].radius(t)]);
+        let growth = Lanes::splat(a.g) + Lanes::new([b[0].g, b[1].g]);
+        sphere_contact_possible(sigma, Some(growth), &dr, &dv, max_tau)
+    }
+
+    #[inline]
+    fn contact_time(&self, lane: usize, max_tau: f64, _unscreened: impl FnOnce() -> f64) -> f64 {
+        self.lane(lane).contact_time(max_tau)
     }
 }
 

@@ -13,9 +13,8 @@
 use super::{median, spread, Figure, Series, StudyContext, StudyOutput, Table};
 use densepack::io::scene::Scene;
 use densepack::run::run_scene;
-use densepack::shape::{
-    predict_ellipsoid_pair, Ellipsoid, Predictor, Spin, Vec3, CONTACT_TOLERANCE,
-};
+use densepack::shape::ellipsoid::{predict_ellipsoid_pair, Predictor, Spin, CONTACT_TOLERANCE};
+use densepack::shape::{Ellipsoid, Vec3};
 use densepack::verify::contact_scale;
 use nalgebra::{Matrix3, UnitQuaternion};
 use rand::{Rng, SeedableRng};

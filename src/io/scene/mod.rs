@@ -81,7 +81,8 @@ pub use mixture::{MixtureMethod, MixtureScene, MixtureSection, RelaxSection};
 
 use crate::protocol::take_phase::{GradingSpec, TakeError, TakeParams, TakePhase};
 use crate::queue::QueueKind;
-use crate::shape::{MassRule, Predictor, CONTACT_TOLERANCE, MAX_CONTACT_TOLERANCE};
+use crate::shape::ellipsoid::{Predictor, CONTACT_TOLERANCE, MAX_CONTACT_TOLERANCE};
+use crate::shape::MassRule;
 use crate::tuning::{DEFAULT_EVENTS_PER_INTERVAL, DEFAULT_NEIGHBOUR_SKIN, DEFAULT_TEMPERATURE};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
