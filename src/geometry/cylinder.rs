@@ -1,5 +1,9 @@
 //! Exact, typed intersection tests between spheres and finite (flat-ended) cylinders.
 //!
+//! One module on purpose (about 1 300 lines with its tests): the four algorithms of the
+//! paper and the exact sub-steps they call form one closed family of pure functions over one
+//! contact type, each tested beside its code.
+//!
 //! # What
 //!
 //! The tests of Salnikov, Choï & Karamian-Surville (2014), *On efficient and reliable

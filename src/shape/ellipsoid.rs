@@ -1,5 +1,10 @@
 //! The growing, rotating hard ellipsoid (paper 004, Ghossein & Lévesque).
 //!
+//! One module on purpose (about 1 700 lines with its tests): the state, the certified
+//! predictor, the impulse, the envelope and the own-image contact all work on the same
+//! Perram–Wertheim quantities (`M`, `G(λ)`, the support function and its curvature bound),
+//! and each derivation below is needed whole by several of them.
+//!
 //! # State
 //! An [`Ellipsoid`] holds its semi-axes as a fixed shape (`axes`, largest entry 1) times a
 //! linearly growing scale `s(t) = s0 + g·t` (Eq. 9 with growth rates proportional to the

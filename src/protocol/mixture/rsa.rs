@@ -1,5 +1,9 @@
 //! Random sequential adsorption of spheres and cylinders (§III, Algorithm 5).
 //!
+//! One module on purpose (about 1 450 lines with its tests): the cost devices below all
+//! serve the one placement loop and share its invariant (they never change which candidate
+//! is accepted); none is used elsewhere.
+//!
 //! Bodies are placed one after the other in the given order (see
 //! [`super::MixtureSpec::sizes`] for the paper's generation orders): a uniformly random
 //! centre in the box and, for a cylinder, a uniformly random axis direction; the candidate
