@@ -16,7 +16,7 @@
 //! nothing) and owns them when it is read back. The encoding is the caller's choice (serde);
 //! `crate::io::checkpoint` writes the file.
 
-use super::{Edmd, EventCounts, KernelConfig, LocalLists, Particle};
+use super::{Edmd, EventCounts, KernelConfig, LocalLists, NeighbourLists, Particle};
 use crate::boundary::Boundary;
 use crate::queue::EventQueue;
 use crate::shape::{Collidable, EnvelopeModel, PeriodicImages};
@@ -73,19 +73,19 @@ where
         KernelSnapshot {
             particles: Cow::Borrowed(&self.particles),
             counts: Cow::Borrowed(&self.counts),
-            list_spheres: Cow::Borrowed(&self.list_spheres),
-            envelopes: Cow::Borrowed(&self.envelopes),
-            neighbours: Cow::Borrowed(&self.neighbours),
-            grid: Cow::Borrowed(&self.grid),
+            list_spheres: Cow::Borrowed(self.lists.spheres()),
+            envelopes: Cow::Borrowed(self.lists.envelopes()),
+            neighbours: Cow::Borrowed(self.lists.all()),
+            grid: Cow::Borrowed(self.lists.grid()),
             ids: Cow::Borrowed(&self.ids),
             reference_volume: self.reference_volume,
             elapsed: self.elapsed,
             interval: self.interval,
             counters: self.counters,
-            updates_at_sort: self.updates_at_sort,
-            skin: self.skin,
-            mean_radius: self.mean_radius,
-            images: self.images.is_some(),
+            updates_at_sort: self.lists.updates_at_sort(),
+            skin: self.lists.skin(),
+            mean_radius: self.lists.mean_radius(),
+            images: self.lists.tracks_images(),
         }
     }
 }
@@ -152,19 +152,23 @@ where
                 ))
             }
         };
-        let grid = snapshot.grid.into_owned();
-        let image_free_zone = super::image_free_zone(&boundary, &grid);
+        let lists = NeighbourLists::restore(
+            snapshot.list_spheres.into_owned(),
+            snapshot.envelopes.into_owned(),
+            snapshot.neighbours.into_owned(),
+            snapshot.grid.into_owned(),
+            &boundary,
+            snapshot.updates_at_sort,
+            snapshot.skin,
+            snapshot.mean_radius,
+            images,
+        );
         Ok(Self {
             particles: snapshot.particles.into_owned(),
             counts: snapshot.counts.into_owned(),
             local: LocalLists::new(n),
-            list_spheres: snapshot.list_spheres.into_owned(),
-            envelopes: snapshot.envelopes.into_owned(),
-            // Recomputed when the next interval begins.
-            list_exit: vec![0.0; envelopes],
-            neighbours: snapshot.neighbours.into_owned(),
+            lists,
             boundary,
-            grid,
             ids: snapshot.ids.into_owned(),
             queue: Q::with_capacity(n),
             config,
@@ -176,19 +180,14 @@ where
             virial: 0.0,
             kinetic_start: 0.0,
             counters: snapshot.counters,
-            updates_at_sort: snapshot.updates_at_sort,
-            skin: snapshot.skin,
-            image_free_zone,
             // Right for any rates; the next interval knows better.
             grows: true,
             scratch: Vec::new(),
             pair_times: Vec::new(),
             screened: Vec::new(),
-            mean_radius: snapshot.mean_radius,
             // Set by the stage the kernel continues (`Edmd::continue_stage`).
             wall_growth: 1.0,
             stage_clock: 0.0,
-            images,
         })
     }
 }

@@ -218,7 +218,7 @@ mod tests {
         let b = a + u * 2.2 - Vec3::new(4.0, 0.0, 0.0);
         let mut kernel = needles(vec![a, b], 10f64.to_radians(), 1.0, 0.1, Vec3::repeat(4.0));
         assert!(
-            kernel.images.is_some(),
+            kernel.lists.tracks_images(),
             "list spheres reach half the box: images are tracked"
         );
         let (t, i, j) = first_collision(&mut kernel, 2.0).expect("the tips meet");
@@ -245,7 +245,7 @@ mod tests {
             0.1,
             Vec3::new(2.0, 3.0, 3.0),
         );
-        assert!(kernel.images.is_some());
+        assert!(kernel.lists.tracks_images());
         let (t, i, j) = first_collision(&mut kernel, 2.0).expect("the needle meets itself");
         assert_eq!(i, j);
         assert!((t - 1.0).abs() < 1e-9, "{t}");

@@ -1,6 +1,17 @@
 //! The EDMD kernel: event-driven molecular dynamics of growing hard particles
 //! (Lubachevsky–Stillinger), generic over shape, container and event queue.
 //!
+//! Why this file is over 900 lines: it holds the methods of `Edmd` that share the
+//! particles' delayed states within one event — construction and thermodynamics, the
+//! barrier's re-prediction (`begin_interval`), the event loop with its prefetch pipeline
+//! (`run_interval`, `collide`, `hit_wall`, `renew_neighbours`) and the prediction passes
+//! (`predict_pairs_as`, `predict_own`) — plus the event budget and ~80 lines of unit
+//! tests. The prediction pass borrows the particles, counters, lists and buffers of the
+//! kernel at once and is called from every kind of event, so it stays beside the loop as a
+//! method of the one struct; what has a state and invariants of its own lives apart: the
+//! neighbour lists (`lists`), the local event lists (`local`), stages (`stage`), periodic
+//! images (`images`) and checkpoints (`checkpoint`).
+//!
 //! # How an event flows
 //! Every particle keeps a *delayed state* — its free flight since its own last event, stored
 //! by the flight's point at kernel time 0 ([`Particle`]) — and a *local event list*: the
@@ -34,7 +45,10 @@
 //! the 27 cells of the plain cell method hold ~36, and the cell grid is touched only at
 //! updates. The grid indexes the sphere centres on several levels (cells halving in width
 //! down to the smallest sphere), so wide size distributions stay cheap; the skin adapts at
-//! barriers ([`Edmd::skin`]).
+//! barriers ([`Edmd::skin`]). The lists are their own type, `lists::NeighbourLists`
+//! (spheres, envelopes and their exits, the lists, the grid, the skin, the image mode),
+//! which states these invariants; the event loop and the prediction passes call it to
+//! build, update, renumber and read them.
 //!
 //! Shapes that may grow longer than half the box ([`Collidable::Images`]) switch to
 //! image-aware lists at the barrier where the list spheres reach half the shortest periodic
@@ -62,10 +76,11 @@
 
 mod checkpoint;
 mod images;
+mod lists;
 mod local;
 mod stage;
-
 pub use checkpoint::{KernelSnapshot, SnapshotError};
+use lists::{ListSphere, NeighbourList, NeighbourLists};
 use local::{EventKind, LocalEvent, LocalList, LocalLists, LOCAL_CAPACITY};
 pub use stage::{
     Limits, PressureAdaptive, Progress, RateSchedule, Stage, StageProgress, StageReport,
@@ -79,7 +94,6 @@ use crate::shape::{
     bounding_sphere_wall_impulse, exit_ball_time, lanes3, stays_in_ball, Collidable, EnvelopeModel,
     Lanes, MassRule, PairScreen, PeriodicImages, PlaneContact, Rotation, Vec3,
 };
-use crate::spatial::{CellGrid, MAX_LEVELS};
 use crate::tuning::{DEFAULT_EVENTS_PER_INTERVAL, DEFAULT_NEIGHBOUR_SKIN, DEFAULT_TEMPERATURE};
 use rand::Rng;
 use rand_distr::StandardNormal;
@@ -207,18 +221,6 @@ impl EventCounts {
     }
 }
 
-/// Neighbours held inline in a particle's list before it moves to the heap.
-///
-/// 14 `u32`s and the length make 64 bytes, one cache line. Lists of equal spheres hold about
-/// 12–14 partners from the fluid to jamming (the skin adapts), so they rarely leave the line;
-/// large particles among small ones spill to the heap. Against a `Vec` per particle this
-/// saves the 24-byte header and a heap block with its allocator overhead (peak memory of a
-/// 2·10⁵-sphere run 67.0 → 64.4 MB) and a pointer chase in every prediction.
-pub(crate) const NEIGHBOURS_INLINE: usize = 14;
-
-/// A particle's neighbour list (indices of the particles whose list spheres overlap its own).
-pub(crate) type NeighbourList = smallvec::SmallVec<[u32; NEIGHBOURS_INLINE]>;
-
 /// Largest neighbour-list skin the kernel adapts to (defined in the leaf module
 /// [`crate::tuning`], where the scene schema validates against it too).
 pub use crate::tuning::MAX_SKIN;
@@ -226,18 +228,6 @@ pub use crate::tuning::MAX_SKIN;
 /// Neighbours screened per block of a prediction pass: one bit each in a `u64` marks those
 /// that pass the screen ([`Edmd::predict_pairs`]).
 const SCREEN_BLOCK: usize = 64;
-
-/// A neighbour-list sphere (see the module docs): the centre and the radius share one
-/// 32-byte record, so the list updates, which test a sphere against some fifty candidates,
-/// and the list-exit predictions load one cache line per sphere rather than two.
-#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
-#[repr(C, align(32))]
-pub(crate) struct ListSphere {
-    /// Centre (wrapped into the box).
-    centre: Vec3,
-    /// Radius.
-    radius: f64,
-}
 
 /// Which partners a prediction pass considers.
 #[derive(Clone, Copy)]
@@ -258,23 +248,9 @@ pub struct Edmd<S: Collidable, B: Boundary, Q: EventQueue> {
     particles: Vec<Particle<S>>,
     counts: Vec<u32>,
     local: LocalLists,
-    /// The neighbour-list spheres.
-    list_spheres: Vec<ListSphere>,
-    /// Neighbour envelopes ([`Collidable::Envelope`]) of the lists, [`EnvelopeModel::kept`]
-    /// of them (one per particle, or none when the list sphere is the envelope); read and
-    /// written only by the envelope model.
-    envelopes: Vec<S::Envelope>,
-    /// Kernel time up to which each particle provably stays inside its envelope (its
-    /// list-update event), recorded before its prediction passes
-    /// ([`Self::refresh_list_exit`]); as many as envelopes, and read and written only by the
-    /// envelope model. Pair predictions look no further than the earlier of the two:
-    /// whichever particle updates its list then predicts the pair again.
-    list_exit: Vec<f64>,
-    /// Symmetric neighbour lists: `j ∈ neighbours[i] ⇔ i ∈ neighbours[j]`.
-    neighbours: Vec<NeighbourList>,
+    /// The neighbour lists, their spheres, envelopes and cell grid, and the skin.
+    lists: NeighbourLists<S>,
     boundary: B,
-    /// Cell grid over the neighour-list sphere centres.
-    grid: CellGrid,
     /// Index each particle had when the kernel was built (the kernel keeps particles sorted
     /// by cell so that neighbours are close in memory).
     ids: Vec<u32>,
@@ -295,19 +271,12 @@ pub struct Edmd<S: Collidable, B: Boundary, Q: EventQueue> {
     /// `Σ m v²` right after the last barrier.
     kinetic_start: f64,
     counters: EventCounts,
-    /// Neighbour-list updates counted when the particles were last sorted into cell order.
-    updates_at_sort: u64,
-    /// Current neighbour-list skin (relative to the radius).
-    skin: f64,
-    /// Lower and upper corners of the region where a list sphere needs no minimum image
-    /// ([`free_of_images`]); set with the grid.
-    image_free_zone: [Vec3; 2],
     /// Whether any particle grows in the current barrier interval (set by
     /// [`Self::begin_interval`]; growth rates change only between intervals): with `false`
     /// the prediction pass's screen leaves the growth terms out ([`PairScreen::may_collide`]).
     /// `true` is right for any rates.
     grows: bool,
-    /// Reused buffer for neighbour-list candidates, and for the partners of a barrier's pass.
+    /// Reused buffer for the partners of a barrier's pass ([`Self::predict_pairs`]).
     scratch: Vec<u32>,
     /// Reused buffer of [`Self::predict_pairs`]: the contact times found in a pass, with
     /// the neighbour's position in the list.
@@ -315,20 +284,11 @@ pub struct Edmd<S: Collidable, B: Boundary, Q: EventQueue> {
     /// Reused buffer of [`Self::predict_pairs`]: what the screen hands on for each step of
     /// two neighbours ([`Collidable::Screened`]).
     screened: Vec<S::Screened>,
-    /// Mean skin length ([`Collidable::skin_length`]; the bounding radius for spheres) at
-    /// the start of the current barrier interval.
-    mean_radius: f64,
     /// [`Stage::wall_growth`] of the running stage: the fraction of each bounding growth
     /// rate that the walls see (1 outside stages that set it).
     wall_growth: f64,
     /// Simulated time of the running stage at kernel time 0 (the last barrier).
     stage_clock: f64,
-    /// Whether neighbour-list entries and collision partners carry periodic image shifts
-    /// ([`images`]): the shape's licence ([`PeriodicImages::tracking`]) once switched on, for
-    /// good, at a barrier where list spheres can reach half the shortest periodic edge.
-    /// Always `None` for shapes without images ([`crate::shape::NoImages`] has no value), so
-    /// every test of it is a constant there.
-    images: Option<S::Images>,
 }
 
 impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
@@ -405,26 +365,15 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 p.spin = p.spin.thermal(&p.shape, *m, config.temperature, 0.0, rng);
             }
         }
-        let grid = CellGrid::new(boundary.min(), boundary.max(), boundary.periodic(), 1.0, 0);
-        let skin = config.neighbour_skin;
+        let lists = NeighbourLists::new(&particles, &boundary, config.neighbour_skin);
         let mut kernel = Self {
             counts: vec![0; n],
             local: LocalLists::new(n),
-            list_spheres: particles
-                .iter()
-                .map(|p| ListSphere {
-                    centre: p.pos,
-                    radius: 0.0,
-                })
-                .collect(),
-            envelopes: vec![S::Envelope::default(); S::Envelope::kept(n)],
-            list_exit: vec![0.0; S::Envelope::kept(n)],
-            neighbours: vec![NeighbourList::new(); n],
+            lists,
             ids: (0..n as u32).collect(),
             queue: Q::with_capacity(n),
             particles,
             boundary,
-            grid,
             config,
             reference_volume,
             time: 0.0,
@@ -434,32 +383,20 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             virial: 0.0,
             kinetic_start: 0.0,
             counters: EventCounts::default(),
-            updates_at_sort: 0,
-            skin,
-            // Nowhere until the grid is built.
-            image_free_zone: [Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY)],
             grows: true,
             scratch: Vec::new(),
             pair_times: Vec::new(),
             screened: Vec::new(),
-            mean_radius: 0.0,
             wall_growth: 1.0,
             stage_clock: 0.0,
-            images: None,
         };
         kernel.rescale_temperature();
-        kernel.update_mean_radius();
-        for i in 0..n {
-            let shape = &kernel.particles[i].shape;
-            let (r, l) = (shape.bounding_radius(0.0), shape.skin_length(0.0));
-            kernel.list_spheres[i].radius = kernel.list_radius_for(r, l);
-            let (p, skin) = (&kernel.particles[i], kernel.list_spheres[i].radius - r);
-            S::Envelope::build(&mut kernel.envelopes, i, &p.shape, &p.spin, 0.0, skin);
-        }
+        kernel.lists.update_mean_radius(&kernel.particles);
+        kernel.lists.size_spheres(&kernel.particles);
         let width = kernel.needed_cell_width(0.0);
         kernel.rebuild_grid(width);
-        kernel.images = kernel.needs_images(width);
-        kernel.build_all_neighbour_lists();
+        kernel.lists.track_images_if_needed(&kernel.boundary, width);
+        kernel.lists.build_all(&kernel.boundary);
         kernel
     }
 
@@ -520,31 +457,13 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// near jamming (particles rattle in tiny cages) shrinks its lists to the touching
     /// neighbours (the band's measurements: BENCHMARKS.md, "Defaults").
     pub fn skin(&self) -> f64 {
-        self.skin
-    }
-
-    /// Radius of a neighbour-list sphere for a particle of bounding radius `r` and skin
-    /// length `l` ([`Collidable::skin_length`], `≤ r`; `r` itself for spheres):
-    /// `r + skin·min(l, l̄)` with `l̄` the mean skin length. Small particles get a skin
-    /// proportional to their size; large ones a shell no thicker than that of a typical
-    /// particle, so a big particle's list holds the small ones touching its surface, not a
-    /// thick layer of them (its list is re-predicted at every one of its collisions).
-    #[inline]
-    fn list_radius_for(&self, r: f64, l: f64) -> f64 {
-        r + self.skin * l.min(self.mean_radius)
+        self.lists.skin()
     }
 
     /// Adapts the skin to the list updates and collisions of the last interval.
     fn adapt_skin(&mut self, collisions: u64, updates: u64) {
-        if collisions + updates < self.particles.len() as u64 {
-            return; // too few events to judge
-        }
-        let ratio = updates as f64 / collisions.max(1) as f64;
-        if ratio > 0.15 {
-            self.skin = (self.skin * 1.2).min(MAX_SKIN);
-        } else if ratio < 0.05 {
-            self.skin = (self.skin / 1.2).max(0.01);
-        }
+        let n = self.particles.len();
+        self.lists.adapt_skin(collisions, updates, n);
     }
 
     /// Simulated time since the kernel was built.
@@ -610,22 +529,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
 
     /// Cell width that holds every neighour-list sphere existing now or built up to time `t`.
     fn needed_cell_width(&self, t: f64) -> f64 {
-        let current = self
-            .list_spheres
-            .iter()
-            .fold(0.0_f64, |m, s| m.max(2.0 * s.radius));
         let r = 0.5 * self.max_diameter(t);
-        current.max(2.0 * self.list_radius_for(r, r))
-    }
-
-    fn update_mean_radius(&mut self) {
-        let n = self.particles.len().max(1) as f64;
-        let sum: f64 = self
-            .particles
-            .iter()
-            .map(|p| p.shape.skin_length(0.0))
-            .sum();
-        self.mean_radius = sum / n;
+        self.lists.needed_cell_width(r)
     }
 
     fn rescale_temperature(&mut self) {
@@ -652,157 +557,27 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     }
 
     /// Rebuilds the cell grid of neighbour-list centres for cells at least `width` wide, and
-    /// renumbers the particles in cell order (cells along a Morton curve,
-    /// [`CellGrid::locality_key`]) so that neighbours sit close in memory (the event loop's
-    /// data then stays in cache for large systems). Only at a barrier: local
-    /// event lists must be empty.
+    /// renumbers the particles in cell order ([`NeighbourLists::rebuild_grid`]) so that
+    /// neighbours sit close in memory (the event loop's data then stays in cache for large
+    /// systems). Only at a barrier: local event lists must be empty.
     fn rebuild_grid(&mut self, width: f64) {
-        let b = &self.boundary;
-        let n = self.particles.len();
-        // Levels halve down to the smallest neighbour-list sphere (one level when all are
-        // alike).
-        let smallest = self
-            .list_spheres
-            .iter()
-            .fold(f64::INFINITY, |m, s| m.min(2.0 * s.radius));
-        let mut widths = vec![width];
-        while widths.len() < MAX_LEVELS && widths[widths.len() - 1] * 0.5 >= smallest {
-            widths.push(widths[widths.len() - 1] * 0.5);
-        }
-        self.grid = CellGrid::with_levels(b.min(), b.max(), b.periodic(), &widths, n);
-        self.image_free_zone = image_free_zone(b, &self.grid);
-        // The keys are dropped before `new_index` exists and the cells are looked up again
-        // after the permutation, so the renumbering's scratch peaks at 12 bytes per particle
-        // (the memory target is ≤ 300 B per particle at N = 10⁶).
-        let keys: Vec<u64> = (0..n)
-            .map(|i| self.grid.locality_key(self.home_cell(i)))
-            .collect();
-        let mut order: Vec<u32> = (0..n as u32).collect();
-        order.sort_unstable_by_key(|&i| (keys[i as usize], i));
-        drop(keys);
-        let mut new_index = vec![0u32; n];
-        for (new, &old) in order.iter().enumerate() {
-            new_index[old as usize] = new as u32;
-        }
-        let mut visited = vec![false; n];
-        permute_in_place(&mut self.counts, &order, &mut visited);
-        permute_in_place(&mut self.list_spheres, &order, &mut visited);
-        if !self.envelopes.is_empty() {
-            permute_in_place(&mut self.envelopes, &order, &mut visited);
-        }
-        permute_in_place(&mut self.ids, &order, &mut visited);
-        permute_in_place(&mut self.particles, &order, &mut visited);
-        let (events, truncated) = self.local.arrays_mut();
-        permute_in_place(events, &order, &mut visited);
-        permute_in_place(truncated, &order, &mut visited);
-        let mut neighbours = std::mem::take(&mut self.neighbours);
-        permute_in_place(&mut neighbours, &order, &mut visited);
-        let tracks_images = self.tracks_images();
-        for list in &mut neighbours {
-            for j in list.iter_mut() {
-                *j = if tracks_images {
-                    images::encode(new_index[images::index(*j)] as usize, images::shift(*j))
-                } else {
-                    new_index[*j as usize]
-                };
-            }
-        }
-        self.neighbours = neighbours;
-        for i in 0..n {
-            let cell = self.home_cell(i);
-            self.grid.insert(i, cell);
-        }
+        let (counts, ids, particles, local) = (
+            &mut self.counts,
+            &mut self.ids,
+            &mut self.particles,
+            &mut self.local,
+        );
+        let updates = self.counters.neighbour_list_updates;
+        self.lists
+            .rebuild_grid(&self.boundary, width, updates, |order, visited| {
+                permute_in_place(counts, order, visited);
+                permute_in_place(ids, order, visited);
+                permute_in_place(particles, order, visited);
+                let (events, truncated) = local.arrays_mut();
+                permute_in_place(events, order, visited);
+                permute_in_place(truncated, order, visited);
+            });
         self.counters.grid_rebuilds += 1;
-        self.updates_at_sort = self.counters.neighbour_list_updates;
-    }
-
-    /// The grid cell for particle `i`'s neighbour-list sphere: at the finest level that holds
-    /// its diameter.
-    #[inline]
-    fn home_cell(&self, i: usize) -> u32 {
-        let level = self.grid.level_for(2.0 * self.list_spheres[i].radius);
-        self.grid.cell_at(level, &self.list_spheres[i].centre)
-    }
-
-    /// Whether the separations between `i` and its neighbours (their centres and their list
-    /// spheres' centres) are their own minimum images ([`free_of_images`]): then a pass
-    /// over `i`'s list skips [`Boundary::minimum_image_lanes`].
-    #[inline]
-    fn pairs_free_of_images(&self, i: usize) -> bool {
-        let s = &self.list_spheres[i];
-        free_of_images(&s.centre, s.radius, &self.image_free_zone)
-    }
-
-    /// Calls `f` with every particle whose neighbour-list sphere may overlap `i`'s (a
-    /// superset, `i` included).
-    #[inline]
-    fn for_each_candidate(&self, i: usize, mut f: impl FnMut(usize)) {
-        for level in 0..self.grid.levels() {
-            // Spheres registered at `level` have radii ≤ half its cell width.
-            let reach = self.list_spheres[i].radius + 0.5 * self.grid.level_width(level);
-            self.grid
-                .for_each_within(level, &self.list_spheres[i].centre, reach, &mut f);
-        }
-    }
-
-    /// [`Self::for_each_candidate`] into `out` (cleared first), for the image-tracking
-    /// list builds, which test each candidate's images.
-    fn list_candidates(&self, i: usize, out: &mut Vec<u32>) {
-        out.clear();
-        self.for_each_candidate(i, |j| out.push(j as u32));
-    }
-
-    /// Appends to `out` the particles `j ≥ first`, `j ≠ i`, whose neighbour-list spheres
-    /// overlap `i`'s (`|c_i − c_j|² < (r_i + r_j)²`), and their envelopes
-    /// ([`EnvelopeModel::may_overlap`]), in the order of the cell walk. Each candidate is tested
-    /// as the walk meets it (a list update walks some 20 cells for about 70 candidates and
-    /// 13 neighbours): no buffer of candidates and no second pass over it.
-    fn overlapping_lists(&self, i: usize, first: usize, out: &mut NeighbourList) {
-        let sphere_i = &self.list_spheres[i];
-        let wraps = !self.pairs_free_of_images(i);
-        self.for_each_candidate(i, |j| {
-            let sphere_j = &self.list_spheres[j];
-            let mut d = sphere_i.centre - sphere_j.centre;
-            if wraps {
-                self.boundary.minimum_image(&mut d);
-            }
-            let reach = sphere_i.radius + sphere_j.radius;
-            let keep = d.norm_squared() < reach * reach
-                && j >= first
-                && j != i
-                && S::Envelope::may_overlap(&self.envelopes, i, j, &d);
-            if keep {
-                out.push(j as u32);
-            }
-        });
-    }
-
-    /// Builds every neighbour list from the current spheres.
-    fn build_all_neighbour_lists(&mut self) {
-        for list in &mut self.neighbours {
-            list.clear();
-        }
-        let mut candidates = std::mem::take(&mut self.scratch);
-        let mut overlapping = NeighbourList::new();
-        for i in 0..self.particles.len() {
-            if self.tracks_images() {
-                self.list_candidates(i, &mut candidates);
-                let mut own = std::mem::take(&mut self.neighbours[i]);
-                for &j in candidates.iter().filter(|&&j| j as usize >= i) {
-                    self.link_images(i, j as usize, &mut own);
-                }
-                self.neighbours[i] = own;
-                continue;
-            }
-            // Each pair once, from its lower index.
-            overlapping.clear();
-            self.overlapping_lists(i, i + 1, &mut overlapping);
-            for &j in &overlapping {
-                self.neighbours[i].push(j);
-                self.neighbours[j as usize].push(i as u32);
-            }
-        }
-        self.scratch = candidates;
     }
 
     /// Moves particle `i`'s neighbour-list sphere to its position at the current time and
@@ -815,45 +590,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let mut wrapped = centre;
         self.boundary.wrap(&mut wrapped);
         self.particles[i].pos += wrapped - centre;
-        let old = std::mem::take(&mut self.neighbours[i]);
-        self.list_spheres[i].centre = wrapped;
-        let shape = &self.particles[i].shape;
-        let (r, l) = (shape.bounding_radius(t), shape.skin_length(t));
-        self.list_spheres[i].radius = self.list_radius_for(r, l);
-        let (p, skin) = (&self.particles[i], self.list_spheres[i].radius - r);
-        S::Envelope::build(&mut self.envelopes, i, &p.shape, &p.spin_at(t), t, skin);
-        self.grid.remove(i);
-        let cell = self.home_cell(i);
-        self.grid.insert(i, cell);
-        let mut new = NeighbourList::new();
-        if self.tracks_images() {
-            let mut candidates = std::mem::take(&mut self.scratch);
-            self.list_candidates(i, &mut candidates);
-            for &j in &old {
-                // Every image of `i` leaves `j`'s list (`j` may be listed once per image).
-                self.neighbours[images::index(j)].retain(|x| images::index(*x) != i);
-            }
-            for &j in &candidates {
-                self.link_images(i, j as usize, &mut new);
-            }
-            self.scratch = candidates;
-        } else {
-            self.overlapping_lists(i, 0, &mut new);
-            // Most partners stay: only the lists of those that leave or arrive are edited
-            // (two scans of the short lists instead of a cache miss on every partner's
-            // list).
-            let listed = |list: &[u32], j: u32| list.iter().fold(false, |a, &x| a | (x == j));
-            for &j in old.iter().filter(|&&j| !listed(&new, j)) {
-                let list = &mut self.neighbours[j as usize];
-                if let Some(k) = list.iter().position(|&x| x as usize == i) {
-                    list.swap_remove(k);
-                }
-            }
-            for &j in new.iter().filter(|&&j| !listed(&old, j)) {
-                self.neighbours[j as usize].push(i as u32);
-            }
-        }
-        self.neighbours[i] = new;
+        let p = &self.particles[i];
+        self.lists.update(&self.boundary, i, p, wrapped, t);
     }
 
     /// Brings every particle to kernel time `t` and moves the time origin there.
@@ -873,24 +611,23 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     fn begin_interval(&mut self, interval: f64) {
         self.interval = interval;
         self.barrier_time = interval;
-        self.update_mean_radius();
+        self.lists.update_mean_radius(&self.particles);
         self.grows = self
             .particles
             .iter()
             .any(|p| p.shape.bounding_growth_rate() != 0.0);
         let needed = self.needed_cell_width(interval);
         let n = self.particles.len();
-        if self.grid.min_width() < needed {
+        if self.lists.grid().min_width() < needed {
             // Rebuild with a small margin so that slow growth does not rebuild every barrier.
             self.rebuild_grid(needed * 1.05);
-        } else if self.counters.neighbour_list_updates - self.updates_at_sort >= n as u64 {
+        } else if self.counters.neighbour_list_updates - self.lists.updates_at_sort() >= n as u64 {
             // Particles have moved since they were last sorted into cell order: sort again
             // (cheap next to the ~N events of an interval; keeps neighbours in cache).
-            self.rebuild_grid(self.grid.min_width());
+            self.rebuild_grid(self.lists.grid().min_width());
         }
-        if let Some(tracking) = self.needs_images(needed) {
-            self.images = Some(tracking);
-            self.build_all_neighbour_lists();
+        if self.lists.track_images_if_needed(&self.boundary, needed) {
+            self.lists.build_all(&self.boundary);
         }
         self.queue.reset(0.0, interval, n);
         for i in 0..n {
@@ -968,11 +705,11 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let mut screened = std::mem::take(&mut self.screened);
         let neighbours = if matches!(partners, Partners::Above) {
             above.clear();
-            let listed = self.neighbours[i].iter();
+            let listed = self.lists.list(i).iter();
             above.extend(listed.filter(|&&e| !skip(self.partner_index(e))));
             above.as_slice()
         } else {
-            self.neighbours[i].as_slice()
+            self.lists.list(i).as_slice()
         };
         // One slot more than neighbours: an odd last step writes one past them.
         if found.len() <= neighbours.len() {
@@ -983,7 +720,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         }
         // The horizon of the pair of `i` and `j` (`i`'s exit was recorded by the caller,
         // [`Self::refresh_list_exit`]).
-        let horizon_with = |j: usize| S::Envelope::pair_horizon(&self.list_exit, i, j, t, max_tau);
+        let horizon_with =
+            |j: usize| S::Envelope::pair_horizon(self.lists.exits(), i, j, t, max_tau);
         // The relative position, velocity and rotation of partner `entry`, and the horizon
         // of the pair.
         let pair = |entry: u32| {
@@ -995,7 +733,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let mut count = 0;
         // Most passes are over lists inside the box, which need no minimum image (the more
         // so the larger the box).
-        let wraps = !self.pairs_free_of_images(i);
+        let wraps = !self.lists.pairs_free_of_images(i);
         // Screen: the neighbours that may meet `i` within the horizon, two per step in the
         // two lanes of packed arithmetic, a block of up to 64 at a time: a bit per neighbour
         // marks those that pass, and what the screen hands on is kept per step. Then the
@@ -1097,8 +835,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// [`Self::predict_afresh`].
     #[inline]
     fn prefetch_partners(&self, i: usize) {
-        prefetch(&self.list_spheres[i]);
-        for &entry in self.neighbours[i].iter() {
+        prefetch(self.lists.sphere(i));
+        for &entry in self.lists.list(i).iter() {
             prefetch(&self.particles[self.partner_index(entry)]);
         }
     }
@@ -1126,10 +864,10 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         // A recorded envelope exit (refreshed before every prediction pass of `i`,
         // [`Self::refresh_list_exit`]), or when the list sphere is the envelope the time the
         // bounding sphere leaves it.
-        let exit = S::Envelope::list_update(&self.list_exit, i, t, || {
-            let mut q = pos - self.list_spheres[i].centre;
+        let exit = S::Envelope::list_update(self.lists.exits(), i, t, || {
+            let mut q = pos - self.lists.sphere(i).centre;
             self.boundary.minimum_image(&mut q);
-            let s = self.list_spheres[i].radius - p.shape.bounding_radius(t);
+            let s = self.lists.sphere(i).radius - p.shape.bounding_radius(t);
             let g = p.shape.bounding_growth_rate();
             // Most particles stay inside their list sphere until the barrier.
             if stays_in_ball(&q, &p.vel, s, g, max_tau) {
@@ -1151,15 +889,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     #[inline]
     fn refresh_list_exit(&mut self, i: usize) {
         let t = self.time;
-        let (particles, list_spheres, boundary) =
-            (&self.particles, &self.list_spheres, &self.boundary);
-        let at = || {
-            let p = &particles[i];
-            let mut q = p.position_at(t) - list_spheres[i].centre;
-            boundary.minimum_image(&mut q);
-            (&p.shape, p.spin_at(t), q, p.vel)
-        };
-        S::Envelope::record_exit(&self.envelopes, &mut self.list_exit, i, t, at);
+        self.lists
+            .refresh_exit(&self.boundary, &self.particles, i, t);
     }
 
     /// The shape's own plane contacts and the container's planes, when wall contacts go
@@ -1231,7 +962,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                         let j = self.partner_index(partner);
                         prefetch(&self.counts[j]);
                         prefetch(&self.particles[j]);
-                        prefetch(&self.neighbours[j]);
+                        prefetch(self.lists.list(j));
                         self.local.prefetch(j);
                         self.queue.prefetch(j);
                     }
@@ -1240,7 +971,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             for &k in upcoming.iter().flatten() {
                 self.local.prefetch(k);
                 prefetch(&self.particles[k]);
-                prefetch(&self.neighbours[k]);
+                prefetch(self.lists.list(k));
             }
             let (idx, event) = self
                 .local
@@ -1280,7 +1011,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     fn collide(&mut self, i: usize, partner: u32, partners_requested: bool) {
         let j = self.partner_index(partner);
         let t = self.time;
-        if let Some(tracking) = self.images {
+        if let Some(tracking) = self.lists.images() {
             if j == i {
                 self.collide_with_own_image(tracking, i, partner);
                 return;
@@ -1366,7 +1097,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// while it tracks images): only its rotation changes.
     fn collide_with_own_image(&mut self, tracking: S::Images, i: usize, entry: u32) {
         let t = self.time;
-        let dr = -images::translation(images::shift(entry), &self.period());
+        let dr = -images::translation(images::shift(entry), &lists::period(&self.boundary));
         let p = &self.particles[i];
         let m = self.mass(p, t);
         let mut spin = p.spin_at(t);
@@ -1377,96 +1108,24 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.counters.collisions += 1;
     }
 
-    /// Whether neighbour entries carry image shifts (never for shapes without images,
-    /// [`crate::shape::NoImages`]: the test then compiles to `false`).
+    /// Whether neighbour entries carry image shifts ([`NeighbourLists::tracks_images`]).
     #[inline(always)]
     fn tracks_images(&self) -> bool {
-        self.images.is_some()
+        self.lists.tracks_images()
     }
 
     /// Particle index of a neighbour entry.
     #[inline(always)]
     fn partner_index(&self, entry: u32) -> usize {
-        if self.tracks_images() {
-            images::index(entry)
-        } else {
-            entry as usize
-        }
+        self.lists.partner_index(entry)
     }
 
     /// Separation `c_i − c_j` of `i` at `pos_i` and the image of `j` at `pos_j` that the
-    /// neighbour entry names: the minimum image, or with images the list-sphere offset of
-    /// the entry's image plus each particle's (minimum-image) offset from its list centre.
+    /// neighbour entry names ([`NeighbourLists::separation`]).
     #[inline(always)]
     fn separation(&self, i: usize, pos_i: &Vec3, j: usize, pos_j: &Vec3, entry: u32) -> Vec3 {
-        if self.tracks_images() {
-            let mut offset_i = pos_i - self.list_spheres[i].centre;
-            let mut offset_j = pos_j - self.list_spheres[j].centre;
-            self.boundary.minimum_image(&mut offset_i);
-            self.boundary.minimum_image(&mut offset_j);
-            let image = images::translation(images::shift(entry), &self.period());
-            return self.list_spheres[i].centre - self.list_spheres[j].centre - image
-                + (offset_i - offset_j);
-        }
-        let mut dr = pos_i - pos_j;
-        self.boundary.minimum_image(&mut dr);
-        dr
-    }
-
-    /// Periodic edge lengths (0 on walled axes).
-    fn period(&self) -> Vec3 {
-        let (lo, hi, periodic) = (
-            self.boundary.min(),
-            self.boundary.max(),
-            self.boundary.periodic(),
-        );
-        Vec3::from_fn(|k, _| if periodic[k] { hi[k] - lo[k] } else { 0.0 })
-    }
-
-    /// The shape's licence to track images ([`PeriodicImages::tracking`]) if image tracking
-    /// must be switched on for neighbour-list spheres up to `width` in diameter: two of them
-    /// can then reach half the shortest periodic edge, where minimum image stops being
-    /// exact. `None` if it is on already or the shape has no images.
-    fn needs_images(&self, width: f64) -> Option<S::Images> {
-        let tracking = S::Images::tracking()?;
-        if self.images.is_some() {
-            return None;
-        }
-        let shortest = self
-            .period()
-            .iter()
-            .copied()
-            .filter(|&l| l > 0.0)
-            .fold(f64::INFINITY, f64::min);
-        let needed = width >= 0.5 * shortest;
-        assert!(
-            !needed || self.particles.len() <= images::MAX_PARTICLES,
-            "periodic images are tracked for at most {} particles",
-            images::MAX_PARTICLES
-        );
-        needed.then_some(tracking)
-    }
-
-    /// Adds to `list_i` (`i`'s new list) every image of `j` whose list sphere (and envelope)
-    /// overlaps `i`'s, and the mirrored entries to `j`'s list; for `j == i`, `i`'s own
-    /// images, once each.
-    fn link_images(&mut self, i: usize, j: usize, list_i: &mut NeighbourList) {
-        let d = self.list_spheres[i].centre - self.list_spheres[j].centre;
-        let reach = self.list_spheres[i].radius + self.list_spheres[j].radius;
-        let period = self.period();
-        let envelopes = &self.envelopes;
-        let list_j = &mut self.neighbours[j];
-        images::overlapping_shifts(&d, reach, &period, i == j, |n| {
-            let image = d - images::translation(n, &period);
-            if !S::Envelope::may_overlap(envelopes, i, j, &image) {
-                return;
-            }
-            let entry = images::encode(j, n);
-            list_i.push(entry);
-            if i != j {
-                list_j.push(images::mirrored(i, entry));
-            }
-        });
+        self.lists
+            .separation(&self.boundary, i, pos_i, j, pos_j, entry)
     }
 
     fn renew_neighbours(&mut self, i: usize) {
@@ -1477,51 +1136,6 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.reschedule(i);
         self.counters.neighbour_list_updates += 1;
     }
-}
-
-/// The zone of [`free_of_images`] for `boundary` and a `grid` whose coarsest cells hold every
-/// neighbour-list sphere: along each periodic axis of length `L ≥ 4w`, with `w` that width,
-/// `[min + w/2 + δ, max − w/2 − δ]` (`δ = 10⁻⁹ L` absorbs the rounding of the bounds and of
-/// the test), and nothing along a shorter one; every point along other axes.
-fn image_free_zone<B: Boundary>(boundary: &B, grid: &CellGrid) -> [Vec3; 2] {
-    let half = 0.5 * grid.min_width();
-    let (min, max, periodic) = (boundary.min(), boundary.max(), boundary.periodic());
-    let mut zone = [Vec3::repeat(f64::NEG_INFINITY), Vec3::repeat(f64::INFINITY)];
-    for k in (0..3).filter(|&k| periodic[k]) {
-        let len = max[k] - min[k];
-        if len >= 8.0 * half {
-            let inset = half + 1e-9 * len;
-            (zone[0][k], zone[1][k]) = (min[k] + inset, max[k] - inset);
-        } else {
-            (zone[0][k], zone[1][k]) = (f64::INFINITY, f64::NEG_INFINITY);
-        }
-    }
-    zone
-}
-
-/// Whether every separation a pass over the list of the list sphere `(centre, radius)`
-/// computes is its own minimum image, so that [`Boundary::minimum_image`] would return it
-/// unchanged: the sphere lies inside `zone` ([`image_free_zone`]).
-///
-/// Along a periodic axis of length `L ≥ 4w` (`w` the coarsest cell width, at least every
-/// list sphere's diameter, so every list radius `R_j ≤ w/2`): list centres are wrapped into
-/// `[min, max)` and the sphere's centre `c` lies at least `R + w/2 ≥ R + R_j` inside both
-/// faces, so the plain difference `c − c_j` to a centre whose sphere overlaps it (minimum
-/// image `< R + R_j`) is that minimum image, and one whose spheres do not overlap stays at
-/// least `R + R_j` apart either way (the list test's outcome is the same). A particle's
-/// centre stays inside its list sphere until its list update, so the centres of two listed
-/// particles differ by less than `2(R + R_j) ≤ 2w ≤ L/2`, which minimum image leaves as it
-/// is. (The same reasoning as the `nearboxedge` flag of Smallenburg's EDMD codes.)
-#[inline]
-fn free_of_images(centre: &Vec3, radius: f64, zone: &[Vec3; 2]) -> bool {
-    let r = Vec3::repeat(radius);
-    let (low, high) = (centre - r, centre + r);
-    (low.x >= zone[0].x)
-        & (low.y >= zone[0].y)
-        & (low.z >= zone[0].z)
-        & (high.x <= zone[1].x)
-        & (high.y <= zone[1].y)
-        & (high.z <= zone[1].z)
 }
 
 /// Reorders `v` so that `v_new[i] = v_old[order[i]]`, in place by following the cycles of
@@ -1635,93 +1249,6 @@ impl EventBudget {
 mod tests {
     use super::permute_in_place;
 
-    /// The lemma of `free_of_images`, sampled: for a list sphere inside the zone, the plain
-    /// difference to any wrapped centre gives the list test's outcome, the plain difference to
-    /// an overlapping one is its minimum image, and so is the difference of two points inside
-    /// the two spheres (a partner's flight line is unwrapped from its sphere's centre). Near
-    /// a face, or in a box shorter than four cells, the zone excludes the sphere.
-    #[test]
-    fn separations_from_the_image_free_zone_are_their_own_minimum_images() {
-        use super::{free_of_images, image_free_zone};
-        use crate::boundary::{Boundary, PeriodicBox, WalledBox};
-        use crate::shape::Vec3;
-        use crate::spatial::CellGrid;
-        use rand::{Rng, SeedableRng};
-        use rand_xoshiro::Xoshiro256PlusPlus;
-
-        let boundary = PeriodicBox {
-            min: Vec3::new(-1.0, 2.0, 0.5),
-            len: Vec3::new(10.0, 12.0, 9.0),
-        };
-        let grid = CellGrid::new(boundary.min(), boundary.max(), [true; 3], 1.5, 100);
-        let zone = image_free_zone(&boundary, &grid);
-        let half = 0.5 * grid.min_width();
-        let mut rng = Xoshiro256PlusPlus::seed_from_u64(16);
-        let point_in = |rng: &mut Xoshiro256PlusPlus, r: f64| loop {
-            let v = Vec3::from_fn(|_, _| rng.gen_range(-r..=r));
-            if v.norm() < r {
-                return v;
-            }
-        };
-        let plain_is_image = |d: Vec3| {
-            let mut m = d;
-            boundary.minimum_image(&mut m);
-            m == d
-        };
-        let mut free = 0;
-        for _ in 0..200_000 {
-            let (ri, rj) = (rng.gen_range(0.01..=half), rng.gen_range(0.01..=half));
-            let mut ci = boundary.min + Vec3::from_fn(|k, _| rng.gen_range(0.0..boundary.len[k]));
-            boundary.wrap(&mut ci);
-            if !free_of_images(&ci, ri, &zone) {
-                continue;
-            }
-            free += 1;
-            // Any wrapped centre: the same list-test outcome either way.
-            let mut cj = boundary.min + Vec3::from_fn(|k, _| rng.gen_range(0.0..boundary.len[k]));
-            boundary.wrap(&mut cj);
-            let mut image = ci - cj;
-            boundary.minimum_image(&mut image);
-            let reach2 = (ri + rj).powi(2);
-            assert_eq!(
-                (ci - cj).norm_squared() < reach2,
-                image.norm_squared() < reach2
-            );
-            // An overlapping centre, and two points inside the spheres.
-            let mut cj = ci + point_in(&mut rng, ri + rj);
-            boundary.wrap(&mut cj);
-            assert!(plain_is_image(ci - cj), "{ci} {cj}");
-            let (xi, xj) = (ci + point_in(&mut rng, ri), cj + point_in(&mut rng, rj));
-            assert!(plain_is_image(xi - xj), "{xi} {xj}");
-        }
-        assert!(free > 50_000, "{free}");
-        // Near a face: outside the zone.
-        let near = boundary.min + Vec3::new(half + 0.2, 5.0, 4.0);
-        assert!(!free_of_images(&near, 0.25, &zone));
-        assert!(free_of_images(&(near + Vec3::x() * 0.1), 0.25, &zone));
-        // A periodic axis shorter than four cells: nowhere; a walled axis: everywhere.
-        let short = PeriodicBox {
-            min: Vec3::zeros(),
-            len: Vec3::new(5.9, 20.0, 20.0),
-        };
-        let grid = CellGrid::new(short.min(), short.max(), [true; 3], 1.5, 100);
-        let centre = Vec3::new(2.95, 10.0, 10.0);
-        assert!(!free_of_images(
-            &centre,
-            0.01,
-            &image_free_zone(&short, &grid)
-        ));
-        let walled = WalledBox {
-            min: Vec3::zeros(),
-            max: Vec3::new(5.9, 20.0, 20.0),
-            periodic: [false, true, true],
-        };
-        let grid = CellGrid::new(walled.min(), walled.max(), walled.periodic(), 1.5, 100);
-        let zone = image_free_zone(&walled, &grid);
-        assert!(free_of_images(&Vec3::new(0.0, 10.0, 10.0), 0.7, &zone));
-        assert!(!free_of_images(&Vec3::new(3.0, 0.5, 10.0), 0.1, &zone));
-    }
-
     /// At a barrier each pair's collision is predicted from its lower index only
     /// (`Partners::Above`): no pair sits in both particles' lists.
     #[test]
@@ -1764,24 +1291,12 @@ mod tests {
         assert!(listed > 20, "only {listed} collisions predicted");
     }
 
-    #[test]
-    fn a_neighbour_list_fills_one_cache_line() {
-        assert_eq!(std::mem::size_of::<super::NeighbourList>(), 64);
-    }
-
     /// A sphere's record is one aligned cache line: a partner costs one line to load.
     #[test]
     fn a_sphere_particle_fills_one_cache_line() {
         type P = super::Particle<crate::shape::Sphere>;
         assert_eq!(std::mem::size_of::<P>(), 64);
         assert_eq!(std::mem::align_of::<P>(), 64);
-    }
-
-    /// A neighbour-list sphere is half an aligned cache line: centre and radius load as one.
-    #[test]
-    fn a_list_sphere_is_half_a_cache_line() {
-        assert_eq!(std::mem::size_of::<super::ListSphere>(), 32);
-        assert_eq!(std::mem::align_of::<super::ListSphere>(), 32);
     }
 
     /// The state is kept at kernel time 0: an event's velocity change moves the stored line
