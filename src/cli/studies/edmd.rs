@@ -27,7 +27,7 @@ use densepack::analysis::jamming::{jamming_report, DEFAULT_CUTOFF};
 use densepack::io::scene::{ContainerSpec, Scene, StageSpec};
 use densepack::kernel::StageReport;
 use densepack::queue::QueueKind;
-use densepack::run::run_scene;
+use densepack::run::{run_scene, RunOutcome};
 use std::process::Command;
 
 /// Seed of every scene unless a study varies it.
@@ -160,16 +160,20 @@ fn scene(queue: &str, seed: u64, particles: Particles, tuning: Tuning, stages: &
 /// Runs a scene, logging each stage to stderr; the stage reports, or the run error as text
 /// (a failed stage or a rejected packing is a kernel problem the tables must show).
 fn run(label: &str, scene: &Scene) -> Result<Vec<StageReport>, String> {
+    run_outcome(label, scene).map(|outcome| outcome.stages)
+}
+
+/// Runs `scene` under `label` on stderr with a line per finished stage; the whole outcome
+/// (stages and packing), or the failure as a table cell.
+fn run_outcome(label: &str, scene: &Scene) -> Result<RunOutcome, String> {
     eprintln!("-- {label}");
     let mut log = |k: usize, r: &StageReport| {
         eprintln!("   stage {k}: {}", r.summary());
     };
-    run_scene(scene, &mut log)
-        .map(|outcome| outcome.stages)
-        .map_err(|e| {
-            eprintln!("   FAILED: {e}");
-            format!("FAILED: {e}")
-        })
+    run_scene(scene, &mut log).map_err(|e| {
+        eprintln!("   FAILED: {e}");
+        format!("FAILED: {e}")
+    })
 }
 
 /// The `equilibrium` protocol: the measured (last) stage at φ = 0.50.
@@ -383,8 +387,7 @@ pub fn jamming(ctx: &StudyContext) -> StudyOutput {
                 .validate()
                 .expect("the rescaled jamming scene is valid");
             let lead = vec![protocol.clone(), queue.to_string()];
-            eprintln!("-- jamming {queue} N = {n}, {protocol}");
-            match run_scene(&scene, &mut |_, _| {}) {
+            match run_outcome(&format!("jamming {queue} N = {n}, {protocol}"), &scene) {
                 Ok(outcome) => {
                     let stages = &outcome.stages;
                     let r = stages.last().expect("the scene has a stage");
@@ -414,10 +417,7 @@ pub fn jamming(ctx: &StudyContext) -> StudyOutput {
                         .concat(),
                     );
                 }
-                Err(e) => {
-                    eprintln!("   FAILED: {e}");
-                    table.failed_row(lead, &format!("FAILED: {e}"))
-                }
+                Err(e) => table.failed_row(lead, &e),
             }
         }
     }
@@ -551,7 +551,9 @@ fn scaling_table(
         let mut n_drawn = nominal;
         for (q, queue) in QUEUES.iter().enumerate() {
             let scene = scene(queue, SEED, particles(nominal), Tuning::default(), &stages);
-            match run_counted(&format!("scaling {name}: {queue} N ≈ {nominal}"), &scene) {
+            match run_outcome(&format!("scaling {name}: {queue} N ≈ {nominal}"), &scene)
+                .map(|o| (o.packing.particles.len(), o.stages))
+            {
                 Ok((n, reports)) => {
                     n_drawn = n;
                     let micros: Vec<f64> = reports[1..].iter().map(micros_per_event).collect();
@@ -606,16 +608,6 @@ fn scaling_table(
             Series::line(format!("{name}, calendar"), unlog(calendar)),
         ],
     )
-}
-
-/// [`run`], also returning the particle count (drawn for a grading curve).
-fn run_counted(label: &str, scene: &Scene) -> Result<(usize, Vec<StageReport>), String> {
-    eprintln!("-- {label}");
-    let outcome = run_scene(scene, &mut |_, _| {}).map_err(|e| {
-        eprintln!("   FAILED: {e}");
-        format!("FAILED: {e}")
-    })?;
-    Ok((outcome.packing.particles.len(), outcome.stages))
 }
 
 /// Sweeps of the neighbour-list skin and of the barrier interval target.
