@@ -175,6 +175,18 @@ struct Oriented {
     a_min: f64,
 }
 
+/// The check a Gmsh export runs on the surfaces it writes
+/// ([`crate::io::export::gmsh::write_geo`]): [`verify`] of those surfaces, summarised.
+pub fn surface_check(surfaces: &Packing) -> crate::io::export::gmsh::SurfaceCheck {
+    let v = verify(surfaces);
+    crate::io::export::gmsh::SurfaceCheck {
+        violation_count: v.violation_count,
+        first_violation: v.violations.into_iter().next(),
+        min_pair_gap: v.min_pair_gap,
+        min_wall_gap: v.min_wall_gap,
+    }
+}
+
 /// Checks a packing at the default tolerance ([`TOLERANCE`]); never trusts anything the
 /// simulation computed.
 pub fn verify(packing: &Packing) -> Verification {

@@ -196,12 +196,7 @@ fn sieve_of_own_curve(
     let scene_d_min = particles
         .and_then(|p| p.get("d_min"))
         .and_then(|d| d.as_f64());
-    super::verify::sieve_against_curve(
-        packing,
-        &curve,
-        super::take::curve_name(&spec),
-        d_min.or(scene_d_min),
-    )
+    super::verify::sieve_against_curve(packing, &curve, spec.describe(), d_min.or(scene_d_min))
 }
 
 /// Size of every figure but the section (pixels).

@@ -3,7 +3,7 @@
 use clap::Args;
 use densepack::io::packing::write_atomically;
 use densepack::protocol::take_phase::{
-    DinCurve, GradingCurve, GradingSpec, TakeParams, TakePhase, BYTES_PER_PARTICLE,
+    GradingCurve, GradingSpec, TakeParams, TakePhase, BYTES_PER_PARTICLE,
 };
 use rand::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -114,46 +114,12 @@ pub fn curve_of(text: &str) -> Result<(GradingCurve, String), String> {
     Ok((curve, name))
 }
 
-/// A short name of a grading curve: `DIN 1045-2 B16`, `Fuller q = 0.5, d_max = 16 mm`,
-/// `sieve table 2–16 mm`.
-pub fn curve_name(spec: &GradingSpec) -> String {
-    match spec {
-        GradingSpec::Din { name } => format!("DIN 1045-2 {name:?}"),
-        GradingSpec::Fuller { q, d_max } => format!("Fuller q = {q}, d_max = {d_max} mm"),
-        GradingSpec::Table { sizes, .. } => format!(
-            "sieve table {}–{} mm",
-            sizes.first().copied().unwrap_or(f64::NAN),
-            sizes.last().copied().unwrap_or(f64::NAN)
-        ),
-    }
-}
-
 /// The grading-curve description (as a scene's `particles.grading` holds it) of a DIN name,
 /// `fuller:Q:D_MAX` or a TOML file with a `grading` table, with a description.
 fn spec_of(text: &str) -> Result<(GradingSpec, String), String> {
-    let din = [
-        ("A8", DinCurve::A8),
-        ("B8", DinCurve::B8),
-        ("C8", DinCurve::C8),
-        ("A16", DinCurve::A16),
-        ("B16", DinCurve::B16),
-        ("C16", DinCurve::C16),
-    ];
-    if let Some((_, c)) = din.iter().find(|(n, _)| n.eq_ignore_ascii_case(text)) {
-        let spec = GradingSpec::Din { name: *c };
-        let name = curve_name(&spec);
-        return Ok((spec, name));
-    }
-    if let Some(rest) = text.strip_prefix("fuller:") {
-        let parts: Vec<&str> = rest.split(':').collect();
-        let [q, d_max] = parts[..] else {
-            return Err(format!("{text}: write fuller:Q:D_MAX, e.g. fuller:0.5:16"));
-        };
-        let q: f64 = q.parse().map_err(|e| format!("{text}: Q: {e}"))?;
-        let d_max: f64 = d_max.parse().map_err(|e| format!("{text}: D_MAX: {e}"))?;
-        GradingCurve::fuller(q, d_max).map_err(|e| e.to_string())?;
-        let spec = GradingSpec::Fuller { q, d_max };
-        let name = curve_name(&spec);
+    if let Some(spec) = GradingSpec::parse_short(text) {
+        let spec = spec?;
+        let name = spec.describe();
         return Ok((spec, name));
     }
     let path = Path::new(text);

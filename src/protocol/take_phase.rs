@@ -387,6 +387,43 @@ pub enum GradingSpec {
 }
 
 impl GradingSpec {
+    /// The short forms of a curve on the command line and in Python: a DIN 1045-2 name
+    /// (`A8`, `B8`, `C8`, `A16`, `B16`, `C16`, any case) or `fuller:Q:D_MAX` (e.g.
+    /// `fuller:0.5:16`, validated). `None` when `text` is neither; the error names `text`.
+    pub fn parse_short(text: &str) -> Option<Result<Self, String>> {
+        if let Some(c) = DinCurve::ALL
+            .iter()
+            .find(|c| format!("{c:?}").eq_ignore_ascii_case(text))
+        {
+            return Some(Ok(GradingSpec::Din { name: *c }));
+        }
+        let rest = text.strip_prefix("fuller:")?;
+        Some((|| {
+            let parts: Vec<&str> = rest.split(':').collect();
+            let [q, d_max] = parts[..] else {
+                return Err(format!("{text}: write fuller:Q:D_MAX, e.g. fuller:0.5:16"));
+            };
+            let q: f64 = q.parse().map_err(|e| format!("{text}: Q: {e}"))?;
+            let d_max: f64 = d_max.parse().map_err(|e| format!("{text}: D_MAX: {e}"))?;
+            GradingCurve::fuller(q, d_max).map_err(|e| format!("{text}: {e}"))?;
+            Ok(GradingSpec::Fuller { q, d_max })
+        })())
+    }
+
+    /// A short name for people: `DIN 1045-2 B16`, `Fuller q = 0.5, d_max = 16 mm`,
+    /// `sieve table 2–16 mm`.
+    pub fn describe(&self) -> String {
+        match self {
+            GradingSpec::Din { name } => format!("DIN 1045-2 {name:?}"),
+            GradingSpec::Fuller { q, d_max } => format!("Fuller q = {q}, d_max = {d_max} mm"),
+            GradingSpec::Table { sizes, .. } => format!(
+                "sieve table {}–{} mm",
+                sizes.first().copied().unwrap_or(f64::NAN),
+                sizes.last().copied().unwrap_or(f64::NAN)
+            ),
+        }
+    }
+
     /// Validates the description and builds the curve.
     pub fn build(&self) -> Result<GradingCurve, TakeError> {
         match self {
@@ -685,7 +722,7 @@ pub struct TakeParams {
 }
 
 /// Dry-run summary of a take phase, available before sampling.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct TakeSummary {
     /// Expected number of particles (Wald: class volume / mean particle volume, summed).
     pub expected_count: f64,

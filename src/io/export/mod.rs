@@ -42,6 +42,165 @@ pub enum ExportError {
     },
 }
 
+/// An export format (the `--format` of `densepack export`, the `format` of the Python
+/// `Packing.export`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    /// Gmsh `.geo` script ([`gmsh`]).
+    Gmsh,
+    /// VTK `.vtu` points with per-particle attributes ([`vtk`]).
+    Vtk,
+    /// Voxel image `.npy` with a `FILE.json` sidecar ([`voxel`]).
+    Npy,
+    /// Voxel image as raw bytes with a `FILE.json` sidecar ([`voxel`]).
+    Raw,
+    /// CSV table, one row per particle ([`csv`]).
+    Csv,
+}
+
+impl Format {
+    /// Every format, in the order the help lists them.
+    pub const ALL: [Format; 5] = [
+        Format::Gmsh,
+        Format::Vtk,
+        Format::Npy,
+        Format::Raw,
+        Format::Csv,
+    ];
+
+    /// The format's name (lower case, as on the command line).
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::Gmsh => "gmsh",
+            Format::Vtk => "vtk",
+            Format::Npy => "npy",
+            Format::Raw => "raw",
+            Format::Csv => "csv",
+        }
+    }
+
+    /// The format called `name`; the error lists the formats.
+    pub fn parse(name: &str) -> Result<Self, ExportError> {
+        Self::ALL
+            .into_iter()
+            .find(|f| f.name() == name)
+            .ok_or_else(|| ExportError::Invalid {
+                option: "--format",
+                message: format!(
+                    "= {name:?} is not a format; the formats are {}",
+                    Self::ALL.map(Format::name).join(", ")
+                ),
+            })
+    }
+
+    /// Whether the format is a voxel image (with a sidecar).
+    pub fn is_voxel(self) -> bool {
+        matches!(self, Format::Npy | Format::Raw)
+    }
+}
+
+/// Options of [`export`]. Each applies to some formats only; `None` (or the default) means
+/// not given, and a given option the format does not use is an error naming it.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ExportOptions {
+    /// Voxel formats: voxels along the longest container edge (default 128).
+    pub voxels: Option<usize>,
+    /// Voxel formats: what a voxel holds (default [`voxel::Labels::Phase`]).
+    pub labels: Option<voxel::Labels>,
+    /// Gmsh: thickness of interface shells around the particles.
+    pub interface: Option<f64>,
+    /// Gmsh: largest element size (default half the mean radius).
+    pub mesh_size: Option<f64>,
+    /// Gmsh: relative radius reduction in `[0, 1)` before export (default 0).
+    pub shrink: Option<f64>,
+}
+
+/// Voxels along the longest edge when [`ExportOptions::voxels`] is not given.
+pub const DEFAULT_VOXELS: usize = 128;
+
+/// What [`export`] wrote.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Exported {
+    /// A Gmsh script.
+    Gmsh(gmsh::GmshReport),
+    /// A voxel image and its sidecar.
+    Voxels(voxel::VoxelSummary),
+    /// A file with nothing further to report (VTK, CSV).
+    File,
+}
+
+/// Writes `packing` to `path` in `format` (atomically). `check_surfaces` is the independent
+/// overlap check a Gmsh export runs on the surfaces it writes (see [`gmsh::write_geo`]; the
+/// callers pass `crate::verify::surface_check`); the other formats do not call it.
+pub fn export(
+    packing: &Packing,
+    format: Format,
+    options: &ExportOptions,
+    check_surfaces: &dyn Fn(&Packing) -> gmsh::SurfaceCheck,
+    path: &Path,
+) -> Result<Exported, ExportError> {
+    let only = |option: &'static str, formats: &str| ExportError::Invalid {
+        option,
+        message: format!("only applies to --format {formats}"),
+    };
+    if format != Format::Gmsh {
+        for (given, option) in [
+            (options.interface.is_some(), "--interface"),
+            (options.mesh_size.is_some(), "--mesh-size"),
+            (options.shrink.is_some(), "--shrink"),
+        ] {
+            if given {
+                return Err(only(option, "gmsh"));
+            }
+        }
+    }
+    if !format.is_voxel() {
+        for (given, option) in [
+            (options.voxels.is_some(), "--voxels"),
+            (options.labels.is_some(), "--labels/--partial-volume"),
+        ] {
+            if given {
+                return Err(only(option, "npy or raw"));
+            }
+        }
+    }
+    match format {
+        Format::Gmsh => gmsh::write_geo(
+            packing,
+            &gmsh::GmshOptions {
+                interface_thickness: options.interface,
+                mesh_size: options.mesh_size,
+                shrink: options.shrink.unwrap_or(0.0),
+            },
+            check_surfaces,
+            path,
+        )
+        .map(Exported::Gmsh),
+        Format::Vtk => {
+            if path.extension().and_then(|e| e.to_str()) != Some("vtu") {
+                return Err(ExportError::Invalid {
+                    option: "--out",
+                    message: "a VTK XML unstructured grid needs the extension .vtu (readers go \
+                              by it)"
+                        .into(),
+                });
+            }
+            vtk::write_vtu(packing, path).map(|()| Exported::File)
+        }
+        Format::Csv => csv::write_csv(packing, path).map(|()| Exported::File),
+        Format::Npy | Format::Raw => voxel::write_voxels(
+            packing,
+            &voxel::VoxelOptions {
+                voxels: options.voxels.unwrap_or(DEFAULT_VOXELS),
+                labels: options.labels.unwrap_or(voxel::Labels::Phase),
+                npy: format == Format::Npy,
+            },
+            path,
+        )
+        .map(Exported::Voxels),
+    }
+}
+
 /// Writes `path` atomically with `fill`, mapping I/O errors to [`ExportError::Io`].
 pub(crate) fn write_file(
     path: &Path,

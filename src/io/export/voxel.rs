@@ -295,6 +295,116 @@ fn npy_header(descr: &str, shape: [usize; 3]) -> Vec<u8> {
     h
 }
 
+/// A voxel image in memory, C order (`[nx, ny, nz]`, z fastest), one variant per label kind.
+#[derive(Clone, Debug, PartialEq)]
+pub enum VoxelImage {
+    /// [`Labels::Phase`].
+    Phase(Vec<u8>),
+    /// [`Labels::Particle`].
+    Particle(Vec<u32>),
+    /// [`Labels::PartialVolume`]: the solid fraction of each voxel from `samples³` points.
+    PartialVolume {
+        /// Sample points per axis and voxel.
+        samples: usize,
+        /// Solid fraction per voxel (−1 outside a cylinder container).
+        fractions: Vec<f32>,
+    },
+}
+
+impl VoxelImage {
+    /// The image of `packing` on `grid` with `labels` (sample counts of
+    /// [`Labels::PartialVolume`] in `1..=16`).
+    pub fn of(packing: &Packing, grid: &Grid, labels: Labels) -> Result<Self, ExportError> {
+        Ok(match labels {
+            Labels::Phase => Self::Phase(voxelize(packing, grid, 0u8, OUTSIDE_PHASE, |_, p| {
+                phase_id(p)
+            })),
+            Labels::Particle => {
+                Self::Particle(voxelize(packing, grid, 0u32, OUTSIDE_PARTICLE, |i, _| {
+                    i as u32 + 1
+                }))
+            }
+            Labels::PartialVolume(samples) => {
+                if samples == 0 || samples > 16 {
+                    return Err(ExportError::Invalid {
+                        option: "--partial-volume",
+                        message: format!("= {samples} is outside the allowed range 1..=16"),
+                    });
+                }
+                Self::PartialVolume {
+                    samples,
+                    fractions: partial_volume(packing, grid, samples),
+                }
+            }
+        })
+    }
+
+    /// Solid volume in voxels: particle voxels, or the sum of the solid fractions.
+    fn solid_voxels(&self) -> f64 {
+        match self {
+            Self::Phase(v) => v.iter().filter(|&&x| x != 0 && x != OUTSIDE_PHASE).count() as f64,
+            Self::Particle(v) => v
+                .iter()
+                .filter(|&&x| x != 0 && x != OUTSIDE_PARTICLE)
+                .count() as f64,
+            Self::PartialVolume { fractions, .. } => fractions
+                .iter()
+                .filter(|&&x| x > 0.0)
+                .map(|&x| f64::from(x))
+                .sum(),
+        }
+    }
+
+    /// The element type: its name and its NumPy `descr`.
+    fn dtype(&self) -> (&'static str, &'static str) {
+        match self {
+            Self::Phase(_) => ("uint8", "|u1"),
+            Self::Particle(_) => ("uint32", "<u4"),
+            Self::PartialVolume { .. } => ("float32", "<f4"),
+        }
+    }
+
+    /// The voxels as little-endian bytes.
+    fn write_le(&self, w: &mut impl Write) -> std::io::Result<()> {
+        match self {
+            Self::Phase(v) => w.write_all(v),
+            Self::Particle(v) => v.iter().try_for_each(|x| w.write_all(&x.to_le_bytes())),
+            Self::PartialVolume { fractions, .. } => fractions
+                .iter()
+                .try_for_each(|x| w.write_all(&x.to_le_bytes())),
+        }
+    }
+
+    /// What the values mean, for the sidecar.
+    fn meaning(&self) -> serde_json::Value {
+        match self {
+            Self::Phase(_) => {
+                let mut names = serde_json::Map::new();
+                for (id, name) in PHASE_NAMES {
+                    names.insert(id.to_string(), name.into());
+                }
+                names.insert(OUTSIDE_PHASE.to_string(), "outside the container".into());
+                serde_json::Value::Object(names)
+            }
+            Self::Particle(_) => serde_json::json!({
+                "0": "matrix",
+                "i + 1": "particle i (packing order)",
+                OUTSIDE_PARTICLE.to_string(): "outside the container",
+            }),
+            Self::PartialVolume { samples, .. } => {
+                serde_json::json!({
+                    "value": format!(
+                        "fraction of the voxel's {samples}³ sample points (x_i + (m + 0.5)/{samples} \
+                         spacing) inside particles"
+                    ),
+                    "samples_per_axis": samples,
+                    "-1": "outside the container (voxel centre outside the cylinder)",
+                })
+            }
+        }
+    }
+}
+
 /// Voxelises `packing` and writes the image and its sidecar.
 pub fn write_voxels(
     packing: &Packing,
@@ -303,86 +413,16 @@ pub fn write_voxels(
 ) -> Result<VoxelSummary, ExportError> {
     let grid = Grid::new(&packing.container, opts.voxels)?;
     let voxel_volume: f64 = grid.spacing.iter().product();
-    let (dtype, descr, particle_voxels, labels_json) = match opts.labels {
-        Labels::Phase => {
-            let image = voxelize(packing, &grid, 0u8, OUTSIDE_PHASE, |_, p| phase_id(p));
-            super::write_file(path, |w| {
-                if opts.npy {
-                    w.write_all(&npy_header("|u1", grid.shape))?;
-                }
-                w.write_all(&image)
-            })?;
-            let mut names = serde_json::Map::new();
-            for (id, name) in PHASE_NAMES {
-                names.insert(id.to_string(), name.into());
-            }
-            names.insert(OUTSIDE_PHASE.to_string(), "outside the container".into());
-            let count = image
-                .iter()
-                .filter(|&&v| v != 0 && v != OUTSIDE_PHASE)
-                .count();
-            (
-                "uint8",
-                "|u1",
-                count as f64,
-                serde_json::Value::Object(names),
-            )
+    let image = VoxelImage::of(packing, &grid, opts.labels)?;
+    let (dtype, descr) = image.dtype();
+    super::write_file(path, |w| {
+        if opts.npy {
+            w.write_all(&npy_header(descr, grid.shape))?;
         }
-        Labels::Particle => {
-            let image = voxelize(packing, &grid, 0u32, OUTSIDE_PARTICLE, |i, _| i as u32 + 1);
-            super::write_file(path, |w| {
-                if opts.npy {
-                    w.write_all(&npy_header("<u4", grid.shape))?;
-                }
-                for v in &image {
-                    w.write_all(&v.to_le_bytes())?;
-                }
-                Ok(())
-            })?;
-            let count = image
-                .iter()
-                .filter(|&&v| v != 0 && v != OUTSIDE_PARTICLE)
-                .count();
-            let meaning = serde_json::json!({
-                "0": "matrix",
-                "i + 1": "particle i (packing order)",
-                OUTSIDE_PARTICLE.to_string(): "outside the container",
-            });
-            ("uint32", "<u4", count as f64, meaning)
-        }
-        Labels::PartialVolume(samples) => {
-            if samples == 0 || samples > 16 {
-                return Err(ExportError::Invalid {
-                    option: "--partial-volume",
-                    message: format!("= {samples} is outside the allowed range 1..=16"),
-                });
-            }
-            let image = partial_volume(packing, &grid, samples);
-            super::write_file(path, |w| {
-                if opts.npy {
-                    w.write_all(&npy_header("<f4", grid.shape))?;
-                }
-                for v in &image {
-                    w.write_all(&v.to_le_bytes())?;
-                }
-                Ok(())
-            })?;
-            let solid: f64 = image
-                .iter()
-                .filter(|&&v| v > 0.0)
-                .map(|&v| f64::from(v))
-                .sum();
-            let meaning = serde_json::json!({
-                "value": format!(
-                    "fraction of the voxel's {samples}³ sample points (x_i + (m + 0.5)/{samples} \
-                     spacing) inside particles"
-                ),
-                "samples_per_axis": samples,
-                "-1": "outside the container (voxel centre outside the cylinder)",
-            });
-            ("float32", "<f4", solid, meaning)
-        }
-    };
+        image.write_le(w)
+    })?;
+    let particle_voxels = image.solid_voxels();
+    let labels_json = image.meaning();
     let summary = VoxelSummary {
         grid,
         packing_fraction_exact: packing_fraction(packing),
