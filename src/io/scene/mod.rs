@@ -75,9 +75,11 @@
 //! stages.
 
 mod mixture;
+mod overrides;
 mod validate;
 
 pub use mixture::{MixtureMethod, MixtureScene, MixtureSection, RelaxSection};
+pub use overrides::parse_assignment;
 
 use crate::protocol::take_phase::{GradingSpec, TakeError, TakeParams, TakePhase};
 use crate::queue::QueueKind;
