@@ -84,6 +84,8 @@
 
 pub mod analysis;
 pub mod boundary;
+pub mod cancel;
+pub mod ensemble;
 pub mod geometry;
 pub mod io;
 pub mod kernel;

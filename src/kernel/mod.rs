@@ -88,6 +88,7 @@ pub use stage::{
 };
 
 use crate::boundary::{Boundary, PlanarWalls, WallId};
+use crate::cancel::CancelFlag;
 use crate::prefetch;
 use crate::queue::EventQueue;
 use crate::shape::{
@@ -289,6 +290,9 @@ pub struct Edmd<S: Collidable, B: Boundary, Q: EventQueue> {
     wall_growth: f64,
     /// Simulated time of the running stage at kernel time 0 (the last barrier).
     stage_clock: f64,
+    /// Set by another thread to stop the running stage ([`StopReason::Cancelled`]);
+    /// not part of a snapshot.
+    cancel: Option<CancelFlag>,
 }
 
 impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
@@ -389,6 +393,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             screened: Vec::new(),
             wall_growth: 1.0,
             stage_clock: 0.0,
+            cancel: None,
         };
         kernel.rescale_temperature();
         kernel.lists.update_mean_radius(&kernel.particles);
@@ -445,6 +450,13 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// Event counts since the kernel was built.
     pub fn counters(&self) -> EventCounts {
         self.counters
+    }
+
+    /// Stages run from now on stop with [`StopReason::Cancelled`] within 1000 events (where
+    /// the wall-clock limit is checked) or at the next time barrier once `flag` is set;
+    /// `None` removes the flag.
+    pub fn set_cancel(&mut self, flag: Option<CancelFlag>) {
+        self.cancel = flag;
     }
 
     /// Current neighbour-list skin, relative to the radius.
@@ -1172,6 +1184,8 @@ fn mass_of<S: Collidable>(rule: MassRule, shape: &S, t: f64, reference_volume: f
 struct EventBudget {
     events_left: u64,
     deadline: Option<std::time::Instant>,
+    /// Checked with the deadline, every [`CHECK_EVERY`] events.
+    cancel: Option<CancelFlag>,
     stall_epsilon: f64,
     since_check: u32,
     time_at_check: f64,
@@ -1240,6 +1254,10 @@ impl EventBudget {
                 self.stopped = Some(StopReason::WallClockLimit);
                 return false;
             }
+            if crate::cancel::is_set(self.cancel.as_deref()) {
+                self.stopped = Some(StopReason::Cancelled);
+                return false;
+            }
         }
         true
     }
@@ -1265,7 +1283,7 @@ mod tests {
             len: Vec3::new(9.0, 9.0, 9.0),
         };
         let radii = vec![0.5; 300];
-        let centres = rsa_spheres(&boundary, &radii, 0.0, 0.0, 100_000, &mut rng).unwrap();
+        let centres = rsa_spheres(&boundary, &radii, 0.0, 0.0, 100_000, None, &mut rng).unwrap();
         let shapes = radii.iter().map(|&r| Sphere { r0: r, g: 0.05 }).collect();
         let mut k: Edmd<Sphere, PeriodicBox, CalendarQueue> =
             Edmd::new(centres, shapes, boundary, KernelConfig::default(), &mut rng);
