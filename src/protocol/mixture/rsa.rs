@@ -1115,7 +1115,7 @@ impl Search {
 }
 
 /// Places bodies of the given sizes, in this order, in `boundary` (Algorithm 5). `cancel`
-/// is checked at every candidate (and before every exclusion map is built).
+/// is checked at every candidate.
 pub fn rsa_mixture<R: Rng>(
     boundary: &PeriodicBox,
     sizes: &[BodySize],
