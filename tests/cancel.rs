@@ -142,3 +142,23 @@ fn seeding_and_relaxation_stop_within_a_second_of_the_flag() {
         assert!(latency < Duration::from_secs(1), "{name}: {latency:?}");
     }
 }
+
+/// A cancelled realisation of an ensemble is `lost`: no packing, and the resume rule runs
+/// it again.
+#[test]
+fn a_cancelled_realisation_is_lost_and_runs_again() {
+    use densepack::ensemble::{packing_path, run_realisation, seeds_to_run, Status, SummaryWriter};
+    let dir = std::env::temp_dir().join(format!("densepack-cancel-lost-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut summary = SummaryWriter::open(&dir).unwrap();
+    let scene = AnyScene::from_toml(LONG_RUN).unwrap();
+    let row = run_realisation(&scene, 3, &dir, Some(Arc::new(AtomicBool::new(true))));
+    assert_eq!(row.seed, 3);
+    assert_eq!(row.status, Status::Lost);
+    assert_eq!(row.message, "the run was cancelled");
+    assert_eq!(row.packing_fraction, None);
+    assert!(!packing_path(&dir, 3).exists());
+    summary.append(&row).unwrap();
+    assert_eq!(seeds_to_run(&dir, &[3]).unwrap(), [3]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
