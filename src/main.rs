@@ -43,7 +43,7 @@ enum Command {
         seed: Option<u64>,
         /// Set a scene value, KEY=VALUE with a dotted key (particles.d_min=2.0,
         /// stage.0.rate=0.01; stages count from 0), checked like the file; repeatable
-        /// (docs/scenes.md, "Overrides"). Not with --resume.
+        /// (docs/scenes.md, "Overrides and seeds"). Not with --resume.
         #[arg(long = "set", value_name = "KEY=VALUE", conflicts_with = "resume")]
         set: Vec<String>,
         /// Print nothing but errors.
