@@ -55,7 +55,7 @@ fn main() {
     for _ in 0..repeat {
         for seed in seed0..seed0 + seeds {
             let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
-            if let Ok(o) = rsa_mixture(&boundary, &sizes, &limits, &mut rng) {
+            if let Ok(o) = rsa_mixture(&boundary, &sizes, &limits, None, &mut rng) {
                 ok += 1;
                 cand += o.candidates;
                 restarts += u64::from(o.restarts);

@@ -9,6 +9,12 @@
 //! - [`io::scene::Scene`] parses and validates a scene ([`io::scene::Scene::from_toml`]);
 //! - [`run::run_scene`] seeds, runs the stages and checks the result independently
 //!   ([`run::RunOutcome`]: the packing, a report per stage, the verification);
+//!   [`run::run`] runs any scene ([`io::scene::AnyScene`], mixtures too) with
+//!   [`run::RunOptions`]: checkpoints, a cancel flag another thread may set
+//!   ([`cancel`]), observers;
+//! - [`io::scene::AnyScene::with_values`] and [`io::scene::AnyScene::with_seed`] change a
+//!   scene without editing its file; [`ensemble`] runs one realisation per seed into a
+//!   directory with a resumable `summary.csv`;
 //! - [`verify::verify`] checks any [`io::packing::Packing`] for overlaps and gaps;
 //! - [`io::export`] writes it for meshing, visualisation or voxel solvers.
 //!
@@ -84,6 +90,8 @@
 
 pub mod analysis;
 pub mod boundary;
+pub mod cancel;
+pub mod ensemble;
 pub mod geometry;
 pub mod io;
 pub mod kernel;

@@ -8,8 +8,8 @@ use densepack::io::checkpoint::CheckpointFile;
 use densepack::io::scene::{AnyScene, MixtureScene, Scene};
 use densepack::kernel::{Progress, StageReport};
 use densepack::run::{
-    resume_run, run_mixture as run_mixture_scene, run_scene_checkpointed, run_scene_observed,
-    CheckpointPlan, RunError, RunOutcome,
+    resume_run, CheckpointPlan, ProgressObserver as OnProgress, RunError, RunOptions, RunOutcome,
+    StageObserver as OnStage,
 };
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -38,6 +38,14 @@ enum Command {
         /// Output packing file.
         #[arg(long)]
         out: PathBuf,
+        /// Run the scene with this seed instead of its own (not with --resume).
+        #[arg(long, conflicts_with = "resume")]
+        seed: Option<u64>,
+        /// Set a scene value, KEY=VALUE with a dotted key (particles.d_min=2.0,
+        /// stage.0.rate=0.01; stages count from 0), checked like the file; repeatable
+        /// (docs/scenes.md, "Overrides and seeds"). Not with --resume.
+        #[arg(long = "set", value_name = "KEY=VALUE", conflicts_with = "resume")]
+        set: Vec<String>,
         /// Print nothing but errors.
         #[arg(long)]
         quiet: bool,
@@ -70,6 +78,9 @@ enum Command {
         #[arg(long)]
         ignore_memory_check: bool,
     },
+    /// Run one scene for many seeds (threads), writing seed-<k>.json and summary.csv into
+    /// a directory; a rerun skips the seeds done (docs/scenes.md, "Ensembles").
+    Ensemble(cli::ensemble::EnsembleArgs),
     /// Check a packing for overlaps, gaps and containment, independently of the simulation.
     Verify {
         /// Packing file (JSON).
@@ -123,15 +134,19 @@ fn command(cli: Cli) -> ExitCode {
     match cli.command {
         None => {
             outln!("densepack: running the embedded default scene (10 000 equal spheres, periodic, grown to reduced pressure 1e12)");
-            let scene = Scene::from_toml(DEFAULT_SCENE).expect("the embedded scene is valid");
+            let scene = AnyScene::Spheres(Box::new(
+                Scene::from_toml(DEFAULT_SCENE).expect("the embedded scene is valid"),
+            ));
             let start = |on_stage: &mut OnStage, on_progress: &mut OnProgress| {
-                run_scene_observed(&scene, on_stage, on_progress)
+                densepack::run::run(&scene, observed(None, on_stage, on_progress))
             };
             run(start, None, false, false, None)
         }
         Some(Command::Run {
             scene,
             out,
+            seed,
+            set,
             quiet,
             log_json,
             run_log,
@@ -181,56 +196,49 @@ fn command(cli: Cli) -> ExitCode {
                     every,
                 };
                 let start = |on_stage: &mut OnStage, on_progress: &mut OnProgress| {
-                    resume_run(&file, Some(&plan), on_stage, on_progress)
+                    resume_run(&file, observed(Some(plan), on_stage, on_progress))
                 };
                 return run(start, Some(out), quiet, log_json, run_log);
             }
-            let scene = scene.expect("clap requires a scene without --resume");
-            let text = match std::fs::read_to_string(&scene) {
-                Ok(t) => t,
+            let path = scene.expect("clap requires a scene without --resume");
+            let scene = match cli::ensemble::load_scene(&path, seed, &set) {
+                Ok(scene) => scene,
                 Err(e) => {
-                    errln!("error: {}: {e}", scene.display());
+                    errln!("error: {e}");
                     return ExitCode::from(2);
                 }
             };
-            let parsed = AnyScene::from_toml(&text);
-            if let (Ok(scene), true) = (&parsed, memory_checked) {
+            if memory_checked {
                 if let Err(code) = check_memory(scene.memory_estimate()) {
                     return code;
                 }
             }
-            match parsed {
-                Ok(AnyScene::Spheres(s)) => {
+            match &scene {
+                AnyScene::Spheres(_) => {
                     let plan = checkpoint.map(|path| CheckpointPlan { path, every });
-                    let start = |on_stage: &mut OnStage, on_progress: &mut OnProgress| match &plan {
-                        Some(plan) => {
-                            run_scene_checkpointed(&text, &s, plan, on_stage, on_progress)
-                        }
-                        None => run_scene_observed(&s, on_stage, on_progress),
+                    let start = |on_stage: &mut OnStage, on_progress: &mut OnProgress| {
+                        densepack::run::run(&scene, observed(plan, on_stage, on_progress))
                     };
                     run(start, Some(out), quiet, log_json, run_log)
                 }
-                Ok(AnyScene::Mixture(_)) if run_log.is_some() => {
+                AnyScene::Mixture(_) if run_log.is_some() => {
                     errln!(
                         "error: --run-log: mixture scenes (RSA or relaxation) have no time \
                          barriers to log"
                     );
                     ExitCode::from(2)
                 }
-                Ok(AnyScene::Mixture(_)) if checkpoint.is_some() => {
+                AnyScene::Mixture(_) if checkpoint.is_some() => {
                     errln!(
                         "error: --checkpoint: mixture scenes (RSA or relaxation, no time \
                          barriers) cannot be checkpointed"
                     );
                     ExitCode::from(2)
                 }
-                Ok(AnyScene::Mixture(s)) => run_mixture(&s, &out, quiet),
-                Err(e) => {
-                    errln!("error: {}: {e}", scene.display());
-                    ExitCode::from(2)
-                }
+                AnyScene::Mixture(m) => run_mixture(&scene, m, &out, quiet),
             }
         }
+        Some(Command::Ensemble(args)) => cli::ensemble::run(&args),
         Some(Command::Verify {
             packing,
             json,
@@ -284,10 +292,19 @@ fn parse_tolerance(text: &str) -> Result<f64, String> {
         .map(|()| tolerance)
 }
 
-/// Hears of every finished stage.
-type OnStage<'a> = dyn FnMut(usize, &StageReport) + 'a;
-/// Hears of a stage's progress at time barriers.
-type OnProgress<'a> = dyn FnMut(usize, &Progress) + 'a;
+/// Run options with these observers and checkpoints.
+fn observed<'a>(
+    checkpoints: Option<CheckpointPlan>,
+    on_stage: &'a mut OnStage,
+    on_progress: &'a mut OnProgress,
+) -> RunOptions<'a> {
+    RunOptions {
+        checkpoints,
+        on_stage: Some(on_stage),
+        on_progress: Some(on_progress),
+        ..RunOptions::default()
+    }
+}
 
 /// Runs `start` (a fresh or resumed run) with the progress reporter, prints its summary and
 /// writes the packing.
@@ -359,9 +376,15 @@ fn run(
     code
 }
 
-/// Runs a sphere + cylinder mixture scene and writes the verified packing.
-fn run_mixture(scene: &MixtureScene, out: &std::path::Path, quiet: bool) -> ExitCode {
-    match run_mixture_scene(scene) {
+/// Runs a sphere + cylinder mixture scene (`mixture` is `scene`'s) and writes the verified
+/// packing.
+fn run_mixture(
+    scene: &AnyScene,
+    mixture: &MixtureScene,
+    out: &std::path::Path,
+    quiet: bool,
+) -> ExitCode {
+    match densepack::run::run(scene, RunOptions::default()) {
         Ok(outcome) => {
             let s = &outcome.packing.stats;
             if !quiet {
@@ -374,7 +397,7 @@ fn run_mixture(scene: &MixtureScene, out: &std::path::Path, quiet: bool) -> Exit
                     fraction("sphere_fraction"),
                     fraction("cylinder_fraction"),
                     s.packing_fraction,
-                    scene.mixture.method.as_str(),
+                    mixture.mixture.method.as_str(),
                     s.wall_seconds,
                     outcome.verification.min_pair_gap.unwrap_or(f64::NAN),
                 );

@@ -43,7 +43,7 @@ fn kernel() -> Edmd<Sphere, PeriodicBox, CalendarQueue> {
     };
     let r = 0.5 * (0.3 * edge.powi(3) / (n as f64 * std::f64::consts::PI / 6.0)).cbrt();
     let radii = vec![r; n];
-    let centres = rsa_spheres(&boundary, &radii, 0.0, 0.0, 1_000_000, &mut rng).unwrap();
+    let centres = rsa_spheres(&boundary, &radii, 0.0, 0.0, 1_000_000, None, &mut rng).unwrap();
     let shapes = radii.iter().map(|&r| Sphere::new(r)).collect();
     Edmd::new(centres, shapes, boundary, KernelConfig::default(), &mut rng)
 }

@@ -371,8 +371,8 @@ wall_gap = 0.2
 #[test]
 fn a_gap_stage_resumes_to_the_same_gap_and_particles() {
     use densepack::io::checkpoint::CheckpointFile;
-    use densepack::io::scene::Scene;
-    use densepack::run::{resume_run, run_scene, run_scene_checkpointed, CheckpointPlan};
+    use densepack::io::scene::{AnyScene, Scene};
+    use densepack::run::{resume_run, run, run_scene, CheckpointPlan, RunOptions};
     let dir = temp_dir("gap");
     let scene = Scene::from_toml(GAP_SCENE).unwrap();
     let straight = run_scene(&scene, &mut |_, _| {}).unwrap().packing;
@@ -381,23 +381,29 @@ fn a_gap_stage_resumes_to_the_same_gap_and_particles() {
         path: dir.join("gap.ckpt"),
         every: Duration::ZERO,
     };
-    let checkpointed =
-        run_scene_checkpointed(GAP_SCENE, &scene, &plan, &mut |_, _| {}, &mut |_, _| {})
-            .unwrap()
-            .packing;
+    let options = RunOptions {
+        checkpoints: Some(plan.clone()),
+        ..RunOptions::default()
+    };
+    let checkpointed = run(&AnyScene::Spheres(Box::new(scene)), options)
+        .unwrap()
+        .packing;
     let file = CheckpointFile::read(&plan.path).unwrap();
     assert_eq!(
         file.header.stage, 1,
         "the last checkpoint is in the gap stage"
     );
     let mut finished = Vec::new();
-    let resumed = resume_run(&file, None, &mut |k, _| finished.push(k), &mut |_, _| {})
-        .unwrap()
-        .packing;
+    let mut on_stage = |k: usize, _: &_| finished.push(k);
+    let options = RunOptions {
+        on_stage: Some(&mut on_stage),
+        ..RunOptions::default()
+    };
+    let resumed = resume_run(&file, options).unwrap().packing;
     assert_eq!(finished, [1], "only the gap stage is left to finish");
     // The resume released the file's kernel record (as large as the kernel: it must not stay
     // resident for the run's length), so the same file cannot be resumed twice.
-    let again = resume_run(&file, None, &mut |_, _| {}, &mut |_, _| {});
+    let again = resume_run(&file, RunOptions::default());
     assert!(
         again.is_err_and(|e| e.to_string().contains("kernel record was already taken")),
         "a second resume from the same file must fail clearly"

@@ -70,7 +70,16 @@ fn collisions_conserve_momentum_and_energy() {
     // spheres with random orientations, then grown to φ ≈ 0.3.
     let n = 60;
     let shape = Ellipsoid::new(Vec3::new(0.5, 0.3, 0.2));
-    let centres = rsa_spheres(&boundary, &vec![0.5; n], 0.0, 0.0, 1_000_000, &mut rng).unwrap();
+    let centres = rsa_spheres(
+        &boundary,
+        &vec![0.5; n],
+        0.0,
+        0.0,
+        1_000_000,
+        None,
+        &mut rng,
+    )
+    .unwrap();
     let spins: Vec<Spin> = (0..n)
         .map(|k| Spin {
             orientation: UnitQuaternion::from_scaled_axis(Vec3::new(

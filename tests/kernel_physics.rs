@@ -95,7 +95,7 @@ fn equilibrium_run_conserves_momentum_and_energy_over_a_million_collisions() {
     // φ = 0.4 is above what RSA reaches comfortably: seed at 0.3 and grow.
     let r = 0.5 * (0.3 * 14.0f64.powi(3) / (n as f64 * std::f64::consts::PI / 6.0)).cbrt();
     let radii = vec![r; n];
-    let centres = rsa_spheres(&boundary, &radii, 0.0, 0.0, 1_000_000, &mut rng).unwrap();
+    let centres = rsa_spheres(&boundary, &radii, 0.0, 0.0, 1_000_000, None, &mut rng).unwrap();
     let shapes = radii.iter().map(|&r| Sphere::new(r)).collect();
     let mut kernel: Edmd<Sphere, PeriodicBox, CalendarQueue> =
         Edmd::new(centres, shapes, boundary, KernelConfig::default(), &mut rng);

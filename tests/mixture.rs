@@ -8,7 +8,7 @@ mod common;
 use common::recomputed_phi;
 use densepack::geometry::cylinder::{overlaps, Cylinder, Shape, Sphere};
 use densepack::io::scene::{AnyScene, MixtureScene, SceneError};
-use densepack::protocol::mixture::relax::{random_rve, relax, RelaxSettings};
+use densepack::protocol::mixture::relax::{random_rve, relax, RelaxError, RelaxSettings};
 use densepack::protocol::mixture::rsa::{rsa_mixture, RsaError, RsaLimits};
 use densepack::protocol::mixture::{
     first_intersection, GenerationOrder, MixtureError, MixtureSpec, Rve,
@@ -61,6 +61,7 @@ fn rsa_reaches_the_requested_fractions_in_every_order() {
             &s.boundary(),
             &s.sizes(order),
             &RsaLimits::default(),
+            None,
             &mut rng,
         )
         .unwrap_or_else(|e| panic!("{order:?}: {e}"));
@@ -171,6 +172,7 @@ fn relaxer_makes_a_fraction_rsa_cannot_reach_intersection_free() {
         &s.boundary(),
         &sizes,
         &limits,
+        None,
         &mut Xoshiro256PlusPlus::seed_from_u64(3),
     );
     match rsa {
@@ -189,7 +191,7 @@ fn relaxer_makes_a_fraction_rsa_cannot_reach_intersection_free() {
         first_intersection(&rve).is_some(),
         "the start must intersect"
     );
-    let report = relax(&mut rve, &RelaxSettings::default()).unwrap();
+    let report = relax(&mut rve, &RelaxSettings::default(), None).unwrap();
     assert!(report.initial_contacts > 50, "{report:?}");
     let (fs, fc) = rve.fractions();
     assert!((fs - 0.30).abs() < 1e-12 && (fc - 0.25).abs() < 1e-12);
@@ -288,7 +290,7 @@ fn relaxer_separates_each_two_body_case() {
             },
             bodies: vec![a, b],
         };
-        relax(&mut rve, &RelaxSettings::default()).unwrap_or_else(|e| panic!("{name}: {e}"));
+        relax(&mut rve, &RelaxSettings::default(), None).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert!(!overlaps(&rve.bodies[0], &rve.bodies[1]), "{name}");
         assert_verified(&rve);
     }
@@ -303,6 +305,7 @@ fn same_seed_same_configuration() {
             &s.boundary(),
             &sizes,
             &RsaLimits::default(),
+            None,
             &mut Xoshiro256PlusPlus::seed_from_u64(seed),
         )
         .unwrap()
@@ -316,7 +319,7 @@ fn same_seed_same_configuration() {
             &sizes,
             &mut Xoshiro256PlusPlus::seed_from_u64(seed),
         );
-        let report = relax(&mut rve, &RelaxSettings::default()).unwrap();
+        let report = relax(&mut rve, &RelaxSettings::default(), None).unwrap();
         (rve, report.steps)
     };
     assert_eq!(run_md(5), run_md(5));
@@ -403,7 +406,9 @@ fn relaxer_gives_up_with_a_clear_message() {
         max_steps: 5,
         ..RelaxSettings::default()
     };
-    let e = relax(&mut rve, &settings).unwrap_err();
+    let Err(RelaxError::GaveUp(e)) = relax(&mut rve, &settings, None) else {
+        panic!("five steps cannot relax the start");
+    };
     assert!(e.contacts > 0 && e.steps == 5);
     let text = e.to_string();
     assert!(

@@ -246,7 +246,8 @@ fn run_case<S: Recorded, B: Boundary + SceneContainer>(
 fn seeded<B: Boundary>(boundary: B, diameters: &[f64], seed: u64, kt: f64) -> Kernel<Sphere, B> {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
     let radii: Vec<f64> = diameters.iter().map(|d| 0.5 * d).collect();
-    let centres = rsa_spheres(&boundary, &radii, 0.0, 0.0, 1_000_000, &mut rng).expect("RSA seeds");
+    let centres =
+        rsa_spheres(&boundary, &radii, 0.0, 0.0, 1_000_000, None, &mut rng).expect("RSA seeds");
     let shapes = radii.iter().map(|&r| Sphere::new(r)).collect();
     let config = KernelConfig {
         temperature: kt,
@@ -575,10 +576,14 @@ fn scale_covariance() {
         let scene = densepack::io::scene::Scene::from_toml(&text).unwrap();
         let mut trajectory = Vec::new();
         let started = std::time::Instant::now();
-        let outcome = densepack::run::run_scene_observed(&scene, &mut |_, _| {}, &mut |_, p| {
-            trajectory.push(p.packing_fraction)
-        })
-        .unwrap();
+        let mut on_progress =
+            |_: usize, p: &densepack::kernel::Progress| trajectory.push(p.packing_fraction);
+        let options = densepack::run::RunOptions {
+            on_progress: Some(&mut on_progress),
+            ..densepack::run::RunOptions::default()
+        };
+        let scene = densepack::io::scene::AnyScene::Spheres(Box::new(scene));
+        let outcome = densepack::run::run(&scene, options).unwrap();
         eprintln!(
             "  scene ×1e{exponent}: {} events, φ = {:.6}, {:.1} s",
             outcome.packing.stats.events,
@@ -749,8 +754,16 @@ fn seeded_ellipsoids<B: Boundary>(
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
     let bounding =
         (0.15 * boundary.volume() / (n as f64 * 4.0 / 3.0 * std::f64::consts::PI)).cbrt();
-    let centres = rsa_spheres(&boundary, &vec![bounding; n], 0.0, 0.0, 1_000_000, &mut rng)
-        .expect("RSA seeds");
+    let centres = rsa_spheres(
+        &boundary,
+        &vec![bounding; n],
+        0.0,
+        0.0,
+        1_000_000,
+        None,
+        &mut rng,
+    )
+    .expect("RSA seeds");
     let spins = (0..n)
         .map(|_| Spin {
             orientation: random_rotation(&mut rng),
@@ -853,7 +866,7 @@ fn relax_case(name: &str, mut rve: Rve) {
         first_intersection(&rve).is_some(),
         "{name}: the start must intersect"
     );
-    let report = relax(&mut rve, &RelaxSettings::default())
+    let report = relax(&mut rve, &RelaxSettings::default(), None)
         .unwrap_or_else(|e| panic!("{name}: the relaxer failed: {e}"));
     assert!(
         first_intersection(&rve).is_none(),

@@ -289,8 +289,8 @@ fn a_walled_concrete_gap_scene_is_the_same_in_every_decimal_unit() {
 #[test]
 fn a_scaled_scene_resumes_to_the_same_packing() {
     use densepack::io::checkpoint::CheckpointFile;
-    use densepack::io::scene::Scene;
-    use densepack::run::{resume_run, run_scene, run_scene_checkpointed, CheckpointPlan};
+    use densepack::io::scene::{AnyScene, Scene};
+    use densepack::run::{resume_run, run, run_scene, CheckpointPlan, RunOptions};
     let dir = temp_dir("resume");
     let text = scene_at(CONCRETE, -3);
     let scene = Scene::from_toml(&text).unwrap();
@@ -299,15 +299,17 @@ fn a_scaled_scene_resumes_to_the_same_packing() {
         path: dir.join("scaled.ckpt"),
         every: std::time::Duration::ZERO,
     };
-    run_scene_checkpointed(&text, &scene, &plan, &mut |_, _| {}, &mut |_, _| {}).unwrap();
+    let options = RunOptions {
+        checkpoints: Some(plan.clone()),
+        ..RunOptions::default()
+    };
+    run(&AnyScene::Spheres(Box::new(scene)), options).unwrap();
     let file = CheckpointFile::read(&plan.path).unwrap();
     assert_eq!(
         file.header.stage, 1,
         "the last checkpoint is in the gap stage"
     );
-    let resumed = resume_run(&file, None, &mut |_, _| {}, &mut |_, _| {})
-        .unwrap()
-        .packing;
+    let resumed = resume_run(&file, RunOptions::default()).unwrap().packing;
     assert_eq!(resumed.particles, straight.particles);
     assert_eq!(resumed.min_gap.to_bits(), straight.min_gap.to_bits());
     assert_eq!(resumed.container, straight.container);

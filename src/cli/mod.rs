@@ -6,6 +6,7 @@ pub mod out;
 
 pub mod analyse;
 pub mod bench;
+pub mod ensemble;
 pub mod export;
 pub mod init;
 pub mod paths;

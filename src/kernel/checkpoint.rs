@@ -188,6 +188,7 @@ where
             // Set by the stage the kernel continues (`Edmd::continue_stage`).
             wall_growth: 1.0,
             stage_clock: 0.0,
+            cancel: None,
         })
     }
 }
@@ -205,7 +206,7 @@ mod tests {
     fn kernel<B: Boundary, Q: EventQueue>(boundary: B, n: usize, r: f64) -> Edmd<Sphere, B, Q> {
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(7);
         let radii = vec![r; n];
-        let centres = rsa_spheres(&boundary, &radii, 0.0, 0.0, 100_000, &mut rng).unwrap();
+        let centres = rsa_spheres(&boundary, &radii, 0.0, 0.0, 100_000, None, &mut rng).unwrap();
         let shapes = radii.iter().map(|&r| Sphere::new(r)).collect();
         Edmd::new(centres, shapes, boundary, KernelConfig::default(), &mut rng)
     }

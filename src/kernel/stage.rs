@@ -143,6 +143,8 @@ pub enum StopReason {
     Unreachable,
     /// The particles jammed ([`Limits::jamming_pressure`]) before the goal was reached.
     JammedBeforeGoal,
+    /// Another thread set the kernel's cancel flag ([`Edmd::set_cancel`]).
+    Cancelled,
 }
 
 impl StopReason {
@@ -184,6 +186,7 @@ impl StopReason {
             Self::WallClockLimit => "wall_clock_limit",
             Self::Unreachable => "unreachable",
             Self::JammedBeforeGoal => "jammed_before_goal",
+            Self::Cancelled => "cancelled",
         }
     }
 }
@@ -403,6 +406,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 started + std::time::Duration::from_secs_f64((s - progress.wall_seconds).max(0.0))
             }),
             stall_epsilon: stage.limits.stall_epsilon,
+            cancel: self.cancel.clone(),
             since_check: progress.since_check,
             time_at_check: progress.time_at_check,
             frozen_checks: progress.frozen_checks,
@@ -421,6 +425,11 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             progress.frozen_checks = budget.frozen_checks;
             progress.wall_seconds = wall_before + started.elapsed().as_secs_f64();
             at_barrier(self, &progress);
+            // Before the interval's prediction pass, which alone is O(N) work.
+            if crate::cancel::is_set(self.cancel.as_deref()) {
+                report_reason = Some(StopReason::Cancelled);
+                break;
+            }
             let mut this = interval;
             if let Some(end) = progress.end_time {
                 this = this.min((end - progress.stage_time).max(0.0));

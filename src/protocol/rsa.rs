@@ -18,6 +18,7 @@ use crate::boundary::Boundary;
 use crate::shape::Vec3;
 use crate::spatial::{CellGrid, MAX_LEVELS};
 use rand::Rng;
+use std::sync::atomic::AtomicBool;
 
 /// RSA could not place every sphere.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -37,16 +38,28 @@ pub struct RsaFailure {
     pub failures: u64,
 }
 
+/// Why random sequential addition of spheres stopped without placing them all.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SeedingError {
+    /// The rejection limit struck.
+    #[error(transparent)]
+    Failed(#[from] RsaFailure),
+    /// The cancel flag was set ([`crate::cancel`]).
+    #[error("random sequential addition was cancelled")]
+    Cancelled,
+}
+
 /// Places spheres of the given radii (any order; placed largest first) in `boundary`.
-/// Returns the centres in the order of `radii`.
+/// Returns the centres in the order of `radii`. `cancel` is checked at every candidate.
 pub fn rsa_spheres<B: Boundary, R: Rng>(
     boundary: &B,
     radii: &[f64],
     gap: f64,
     wall_gap: f64,
     max_failures: u64,
+    cancel: Option<&AtomicBool>,
     rng: &mut R,
-) -> Result<Vec<Vec3>, RsaFailure> {
+) -> Result<Vec<Vec3>, SeedingError> {
     let n = radii.len();
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by(|&a, &b| radii[b].total_cmp(&radii[a]).then(a.cmp(&b)));
@@ -69,6 +82,9 @@ pub fn rsa_spheres<B: Boundary, R: Rng>(
         let r = radii[i];
         let mut failures = 0u64;
         loop {
+            if crate::cancel::is_set(cancel) {
+                return Err(SeedingError::Cancelled);
+            }
             let candidate = boundary.sample_center(r + wall_gap, rng);
             let free =
                 candidate.is_some_and(|c| is_free(&grid, boundary, &centres, radii, c, r, gap));
@@ -87,7 +103,8 @@ pub fn rsa_spheres<B: Boundary, R: Rng>(
                     total: n,
                     fraction: volume / boundary.volume(),
                     failures: max_failures,
-                });
+                }
+                .into());
             }
         }
     }

@@ -78,7 +78,7 @@ impl ShapeRun for Ellipsoids {
     /// thermal velocities (all drawn from `rng` after the true diameters).
     fn seed<B: Boundary + SceneContainer, Q: EventQueue>(
         scene: &Scene,
-        _job: &Job,
+        job: &Job,
         true_diameters: &[f64],
         boundary: B,
         rng: &mut Xoshiro256PlusPlus,
@@ -99,6 +99,7 @@ impl ShapeRun for Ellipsoids {
             0.0,
             0.0,
             scene.particles.rsa_max_failures,
+            job.cancel.as_deref(),
             rng,
         )?;
         let seeding_seconds = started.elapsed().as_secs_f64();

@@ -2,37 +2,15 @@
 //! start and the relaxer, the packing record, the independent check.
 
 use super::stages::provenance;
-use super::SceneContainer;
+use super::{RunError, RunOutcome, SceneContainer};
 use crate::boundary::Boundary;
 use crate::geometry::cylinder::Shape;
 use crate::io::packing::{Packing, PackingStats, ParticleRecord, Timings};
 use crate::protocol::mixture::Rve;
-use crate::verify::{verify, Verification};
+use crate::verify::verify;
 use rand::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
-
-/// A finished mixture run: the verified packing and what the generation did.
-#[derive(Debug)]
-pub struct MixtureOutcome {
-    /// The packing (verified).
-    pub packing: Packing,
-    /// The independent verification.
-    pub verification: Verification,
-}
-
-/// Why a mixture run produced no packing.
-#[derive(Debug, thiserror::Error)]
-pub enum MixtureRunError {
-    /// Random sequential adsorption failed.
-    #[error(transparent)]
-    Rsa(#[from] crate::protocol::mixture::rsa::RsaError),
-    /// The relaxer gave up.
-    #[error(transparent)]
-    Relax(#[from] crate::protocol::mixture::relax::RelaxFailure),
-    /// The independent check rejected the result: a bug; nothing is written.
-    #[error("the independent overlap check rejected the packing: {0}")]
-    Verification(String),
-}
+use std::sync::atomic::AtomicBool;
 
 /// The packing record of a mixture configuration (periodic box, wrapped centres).
 /// `reduced_pressure` is 0 (no pressure is measured without event-driven dynamics),
@@ -92,9 +70,12 @@ fn records(rve: &Rve) -> Vec<ParticleRecord> {
 
 /// Runs a validated mixture scene: RSA or random start + relaxer, then the independent
 /// check; deterministic for the scene's seed (Xoshiro256++) unless a time limit strikes.
-pub fn run_mixture(
+/// `cancel` is checked at every RSA candidate and relaxer step. No stages: the outcome's
+/// `stages` is empty.
+pub(super) fn run_mixture(
     scene: &crate::io::scene::MixtureScene,
-) -> Result<MixtureOutcome, MixtureRunError> {
+    cancel: Option<&AtomicBool>,
+) -> Result<RunOutcome, RunError> {
     use crate::io::scene::MixtureMethod;
     use crate::protocol::mixture::{relax, rsa};
     let spec = scene.spec();
@@ -106,7 +87,11 @@ pub fn run_mixture(
     let rve = match scene.mixture.method {
         MixtureMethod::Rsa => {
             let sizes = spec.sizes(scene.mixture.order);
-            let out = rsa::rsa_mixture(&boundary, &sizes, &scene.rsa_limits(), &mut rng)?;
+            let out = rsa::rsa_mixture(&boundary, &sizes, &scene.rsa_limits(), cancel, &mut rng)
+                .map_err(|e| match e {
+                    rsa::RsaError::Cancelled => RunError::Cancelled,
+                    e => RunError::Adsorption(e),
+                })?;
             extra.insert("candidates".into(), serde_json::json!(out.candidates));
             extra.insert("restarts".into(), serde_json::json!(out.restarts));
             out.rve
@@ -114,7 +99,11 @@ pub fn run_mixture(
         MixtureMethod::Md => {
             let sizes = spec.sizes(crate::protocol::mixture::GenerationOrder::CylindersFirst);
             let mut rve = relax::random_rve(&boundary, &sizes, &mut rng);
-            let report = relax::relax(&mut rve, &scene.relax_settings())?;
+            let report =
+                relax::relax(&mut rve, &scene.relax_settings(), cancel).map_err(|e| match e {
+                    relax::RelaxError::Cancelled => RunError::Cancelled,
+                    relax::RelaxError::GaveUp(f) => RunError::Relaxation(f),
+                })?;
             extra.insert("steps".into(), serde_json::json!(report.steps));
             extra.insert("relax".into(), serde_json::json!(report));
             rve
@@ -125,9 +114,7 @@ pub fn run_mixture(
     let verify_started = std::time::Instant::now();
     let verification = verify(&packing);
     if !verification.ok() {
-        return Err(MixtureRunError::Verification(
-            verification.violations.join("; "),
-        ));
+        return Err(RunError::Verification(verification.violations.join("; ")));
     }
     packing.provenance = Some(provenance(
         scene,
@@ -138,8 +125,9 @@ pub fn run_mixture(
             verification_seconds: verify_started.elapsed().as_secs_f64(),
         },
     ));
-    Ok(MixtureOutcome {
+    Ok(RunOutcome {
         packing,
+        stages: Vec::new(),
         verification,
     })
 }

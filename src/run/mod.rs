@@ -18,25 +18,29 @@
 //! The kernel runs relative to the container's origin (`container_origin`) and in the
 //! scene's reduced lengths ([`Units`]: every length divided by `ℓ = 10^E`, exactly under
 //! decimal changes of unit); the packing is scaled and translated back when it is written.
-//! Sphere and ellipsoid runs can write checkpoints at time barriers and be resumed from them
-//! ([`run_scene_checkpointed`], [`resume_run`]).
+//! [`run`] runs any scene ([`AnyScene`]) with [`RunOptions`]: checkpoints at time barriers
+//! (sphere and ellipsoid runs; [`resume_run`] continues from one), a cancel flag
+//! ([`crate::cancel`]) and observers of stages and progress. [`run_scene`] is the plain
+//! entry for a sphere or ellipsoid scene.
 
 pub mod ellipsoid;
 mod mixture;
 mod spheres;
 mod stages;
 
-pub use mixture::{mixture_packing, run_mixture, MixtureOutcome, MixtureRunError};
+pub use mixture::mixture_packing;
 pub use stages::{gap_opened, kernel_stage};
 
 use crate::boundary::{Boundary, CylinderContainer, PeriodicBox, WalledBox};
+use crate::cancel::CancelFlag;
 use crate::io::checkpoint::{CheckpointError, CheckpointFile};
 use crate::io::packing::ContainerRecord;
 use crate::io::packing::Packing;
-use crate::io::scene::{ContainerSpec, Scene};
+use crate::io::scene::{AnyScene, ContainerSpec, Scene};
 use crate::io::units::Units;
 use crate::kernel::{Edmd, Progress, StageReport};
-use crate::protocol::rsa::RsaFailure;
+use crate::protocol::mixture::{relax::RelaxFailure, rsa::RsaError};
+use crate::protocol::rsa::{RsaFailure, SeedingError};
 use crate::queue::{CalendarQueue, EventQueue, HeapQueue, QueueKind};
 use crate::shape::{Collidable, Vec3};
 use crate::verify::Verification;
@@ -48,12 +52,12 @@ use stages::{
     StagesFrom,
 };
 
-/// A finished run: the packing (verified) and what happened.
+/// A finished run of any scene: the packing (verified) and what happened.
 #[derive(Debug)]
 pub struct RunOutcome {
     /// The packing, synchronised at the end of the last stage.
     pub packing: Packing,
-    /// Report of every stage that ran.
+    /// Report of every stage that ran (empty for RSA and mixture scenes, which have none).
     pub stages: Vec<StageReport>,
     /// The independent verification of the packing.
     pub verification: Verification,
@@ -64,7 +68,17 @@ pub struct RunOutcome {
 pub enum RunError {
     /// Seeding by random sequential addition failed.
     #[error(transparent)]
-    Seeding(#[from] RsaFailure),
+    Seeding(RsaFailure),
+    /// Random sequential adsorption of a mixture failed (never its `Cancelled`, which is
+    /// [`RunError::Cancelled`]).
+    #[error(transparent)]
+    Adsorption(RsaError),
+    /// The relaxer of a mixture gave up.
+    #[error(transparent)]
+    Relaxation(RelaxFailure),
+    /// The cancel flag of [`RunOptions::cancel`] was set: no packing.
+    #[error("the run was cancelled")]
+    Cancelled,
     /// A stage stopped before reaching its goal.
     #[error(
         "stage {stage} stopped without reaching its goal ({goal}): {reason} after {events} \
@@ -99,6 +113,15 @@ pub enum RunError {
     Checkpoint(#[from] CheckpointError),
 }
 
+impl From<SeedingError> for RunError {
+    fn from(e: SeedingError) -> Self {
+        match e {
+            SeedingError::Failed(f) => RunError::Seeding(f),
+            SeedingError::Cancelled => RunError::Cancelled,
+        }
+    }
+}
+
 /// Where and how often a run writes checkpoints ([`crate::io::checkpoint`]).
 #[derive(Clone, Debug)]
 pub struct CheckpointPlan {
@@ -109,45 +132,83 @@ pub struct CheckpointPlan {
     pub every: std::time::Duration,
 }
 
+/// Hears of each finished stage: its index (from 0) and report.
+pub type StageObserver<'a> = dyn FnMut(usize, &StageReport) + 'a;
+
+/// Hears of the running stage (its index from 0) at every time barrier.
+pub type ProgressObserver<'a> = dyn FnMut(usize, &Progress) + 'a;
+
+/// How a run is carried out besides its scene: checkpoints, cancellation, observers. Every
+/// field is optional (`RunOptions::default()` runs plainly).
+#[derive(Default)]
+pub struct RunOptions<'a> {
+    /// Write checkpoints as the plan says (sphere and ellipsoid scenes: a mixture scene with
+    /// a plan fails with [`RunError::Unsupported`]; an RSA scene never reaches a barrier).
+    pub checkpoints: Option<CheckpointPlan>,
+    /// Stop the run, from any thread, by setting the flag: the run returns
+    /// [`RunError::Cancelled`] within milliseconds (see [`crate::cancel`] for where it is
+    /// checked).
+    pub cancel: Option<CancelFlag>,
+    /// Told of each finished stage: its index (from 0, as in errors and reports) and report.
+    pub on_stage: Option<&'a mut StageObserver<'a>>,
+    /// Told the stage index and its [`Progress`] at every time barrier (throttle in the
+    /// observer: barriers can come thousands of times a second).
+    pub on_progress: Option<&'a mut ProgressObserver<'a>>,
+}
+
 /// How a run starts and what it writes on the way.
 struct Job<'a> {
     /// The scene as written (validated): its origin, units and provenance. The stages run
     /// on its reduced copy ([`Units::reduced`]).
     scene: &'a Scene,
-    /// The scene's TOML text, stored in checkpoints.
+    /// The scene's TOML text, stored in checkpoints (empty without checkpoints).
     scene_toml: &'a str,
     /// A fresh run seeds; a resumed one rebuilds the kernel from the checkpoint.
     resume: Option<&'a CheckpointFile>,
     checkpoints: Option<&'a CheckpointPlan>,
+    /// Given to the seeding and the kernel.
+    cancel: Option<CancelFlag>,
 }
 
-/// Runs the scene given as TOML text (parsed and validated by the caller into `scene`)
-/// and writes checkpoints as `plan` says. The packing is the one [`run_scene_observed`]
-/// gives. Sphere and ellipsoid scenes (EDMD); RSA scenes never reach a time barrier.
-pub fn run_scene_checkpointed(
-    scene_toml: &str,
-    scene: &Scene,
-    plan: &CheckpointPlan,
-    on_stage: &mut dyn FnMut(usize, &StageReport),
-    on_progress: &mut dyn FnMut(usize, &Progress),
-) -> Result<RunOutcome, RunError> {
+/// Runs any validated scene (spheres, ellipsoids or a mixture) as `options` say. Same scene
+/// and seed give the same particles bit for bit, with or without checkpoints and observers.
+pub fn run(scene: &AnyScene, options: RunOptions) -> Result<RunOutcome, RunError> {
+    let scene = match scene {
+        AnyScene::Spheres(scene) => scene,
+        AnyScene::Mixture(mixture) => {
+            if options.checkpoints.is_some() {
+                return Err(RunError::Unsupported(
+                    "checkpoints: mixture scenes (RSA or relaxation, no time barriers) cannot \
+                     be checkpointed"
+                        .into(),
+                ));
+            }
+            return mixture::run_mixture(mixture, options.cancel.as_deref());
+        }
+    };
+    let scene_toml = match &options.checkpoints {
+        // A checkpoint stores the scene it resumes (the scene round-trips exactly).
+        Some(_) => toml::to_string(scene.as_ref())
+            .map_err(|e| RunError::Unsupported(format!("the scene cannot be stored: {e}")))?,
+        None => String::new(),
+    };
     let job = Job {
         scene,
-        scene_toml,
+        scene_toml: &scene_toml,
         resume: None,
-        checkpoints: Some(plan),
+        checkpoints: options.checkpoints.as_ref(),
+        cancel: options.cancel.clone(),
     };
-    run_job(&job, on_stage, on_progress)
+    run_observed(&job, options.on_stage, options.on_progress)
 }
 
 /// Continues the run that wrote `checkpoint` to the packing the uninterrupted run gives
-/// (the same particles, bit for bit; timings differ), writing further checkpoints as `plan`
-/// says. `on_stage` hears of the stages that finish from here on.
+/// (the same particles, bit for bit; timings differ), writing further checkpoints as
+/// `options.checkpoints` says. `options.on_stage` hears of the stages that finish from
+/// here on.
 pub fn resume_run(
     checkpoint: &CheckpointFile,
-    plan: Option<&CheckpointPlan>,
-    on_stage: &mut dyn FnMut(usize, &StageReport),
-    on_progress: &mut dyn FnMut(usize, &Progress),
+    options: RunOptions,
 ) -> Result<RunOutcome, RunError> {
     let header = &checkpoint.header;
     let scene = Scene::from_toml(&header.scene_toml)
@@ -165,33 +226,41 @@ pub fn resume_run(
         scene: &scene,
         scene_toml: &header.scene_toml,
         resume: Some(checkpoint),
-        checkpoints: plan,
+        checkpoints: options.checkpoints.as_ref(),
+        cancel: options.cancel.clone(),
     };
-    run_job(&job, on_stage, on_progress)
+    run_observed(&job, options.on_stage, options.on_progress)
 }
 
-/// Runs a validated scene. `on_stage` is told about each finished stage.
+/// Runs a validated sphere or ellipsoid scene. `on_stage` is told about each finished
+/// stage. ([`run`] takes any scene and more options.)
 pub fn run_scene(
     scene: &Scene,
     on_stage: &mut dyn FnMut(usize, &StageReport),
-) -> Result<RunOutcome, RunError> {
-    run_scene_observed(scene, on_stage, &mut |_, _| {})
-}
-
-/// [`run_scene`], also telling `on_progress` the stage index and its [`Progress`] at every
-/// time barrier (throttle in the observer: barriers can come thousands of times a second).
-pub fn run_scene_observed(
-    scene: &Scene,
-    on_stage: &mut dyn FnMut(usize, &StageReport),
-    on_progress: &mut dyn FnMut(usize, &Progress),
 ) -> Result<RunOutcome, RunError> {
     let job = Job {
         scene,
         scene_toml: "",
         resume: None,
         checkpoints: None,
+        cancel: None,
     };
-    run_job(&job, on_stage, on_progress)
+    run_job(&job, on_stage, &mut |_, _| {})
+}
+
+/// [`run_job`] with the observers of [`RunOptions`] (none: nobody is told).
+fn run_observed(
+    job: &Job,
+    on_stage: Option<&mut StageObserver>,
+    on_progress: Option<&mut ProgressObserver>,
+) -> Result<RunOutcome, RunError> {
+    let mut no_stage = |_: usize, _: &StageReport| {};
+    let mut no_progress = |_: usize, _: &Progress| {};
+    run_job(
+        job,
+        on_stage.unwrap_or(&mut no_stage),
+        on_progress.unwrap_or(&mut no_progress),
+    )
 }
 
 /// The point the kernel's coordinates are relative to: the box's lower corner or the
@@ -307,6 +376,7 @@ fn run_with<R: ShapeRun, B: Boundary + SceneContainer, Q: EventQueue>(
             (kernel, from, 0.0)
         }
     };
+    kernel.set_cancel(job.cancel.clone());
     let done = run_stages(
         scene,
         job,

@@ -42,6 +42,7 @@ impl ShapeRun for Spheres {
             rsa_gap,
             rsa_wall_gap,
             scene.particles.rsa_max_failures,
+            job.cancel.as_deref(),
             rng,
         )?;
         let seeding_seconds = started.elapsed().as_secs_f64();

@@ -295,6 +295,9 @@ where
             }
         });
         on_stage(k, &report);
+        if report.stop_reason == StopReason::Cancelled {
+            return Err(RunError::Cancelled);
+        }
         // A gap stage succeeds only when its time is up (every radius gained Δd/2): jamming
         // first (`JammedBeforeGoal`, or a `reduced_pressure` goal the scene adds) means the
         // gap does not fit. Δd maximisation ends when the gap cannot grow: jammed, or time

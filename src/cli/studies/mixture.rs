@@ -7,7 +7,7 @@
 //! ([`densepack::verify::verify`]: GJK separating-plane certificates over all periodic images).
 
 use super::{median, Figure, Series, StudyContext, StudyOutput, Table};
-use densepack::protocol::mixture::relax::{random_rve, relax, RelaxSettings};
+use densepack::protocol::mixture::relax::{random_rve, relax, RelaxError, RelaxSettings};
 use densepack::protocol::mixture::rsa::{rsa_mixture, RsaLimits};
 use densepack::protocol::mixture::{GenerationOrder, MixtureSpec};
 use densepack::verify::verify;
@@ -94,7 +94,7 @@ pub fn generate(
     let start = Instant::now();
     let cpu_start = cpu_time::ThreadTime::now();
     let rve = if method == "rsa" {
-        rsa_mixture(&boundary, &sizes, &limits, &mut rng)
+        rsa_mixture(&boundary, &sizes, &limits, None, &mut rng)
             .map_err(|e| GenerationFailure::GaveUp {
                 message: e.to_string(),
                 max_depth: None,
@@ -106,9 +106,12 @@ pub fn generate(
             time_limit: Some(Duration::from_secs_f64(limit)),
             ..*settings
         };
-        relax(&mut rve, &settings).map_err(|e| GenerationFailure::GaveUp {
+        relax(&mut rve, &settings, None).map_err(|e| GenerationFailure::GaveUp {
             message: e.to_string(),
-            max_depth: Some(e.max_depth),
+            max_depth: match e {
+                RelaxError::GaveUp(f) => Some(f.max_depth),
+                RelaxError::Cancelled => None,
+            },
         })?;
         rve
     };
@@ -122,7 +125,7 @@ pub fn generate(
         let batch = cpu_time::ThreadTime::now();
         for _ in 0..repeats {
             let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
-            std::hint::black_box(rsa_mixture(&boundary, &sizes, &limits, &mut rng).is_ok());
+            std::hint::black_box(rsa_mixture(&boundary, &sizes, &limits, None, &mut rng).is_ok());
         }
         cpu_seconds = batch.elapsed().as_secs_f64() / f64::from(repeats);
     }

@@ -394,6 +394,28 @@ until = { time = 1.0 }
         assert!(file.to_string().starts_with("stage[0].rate:"), "{file}");
     }
 
+    /// Every shipped scene, written out and read back, is the same scene: what a checkpoint
+    /// stores and what `with_values` edits is the scene itself.
+    #[test]
+    fn every_example_scene_round_trips() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/scenes");
+        let mut count = 0;
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().is_none_or(|e| e != "toml") {
+                continue;
+            }
+            let scene = AnyScene::from_toml(&std::fs::read_to_string(&path).unwrap())
+                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            let again = AnyScene::from_toml(&scene.to_toml())
+                .unwrap_or_else(|e| panic!("{}: {e}\n{}", path.display(), scene.to_toml()));
+            assert_eq!(again, scene, "{}", path.display());
+            assert_eq!(scene.with_values(&[]).unwrap(), scene);
+            count += 1;
+        }
+        assert!(count >= 30, "{count} scenes");
+    }
+
     #[test]
     fn with_seed_changes_the_seed_alone() {
         let s = scene();

@@ -51,6 +51,7 @@ use crate::geometry::cylinder::{for_each_contact, Shape};
 use crate::shape::Vec3;
 use rand::{Rng, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
+use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 /// Parameters of the relaxer (lengths in units of the smallest body radius `ℓ`, mass 1).
@@ -209,6 +210,17 @@ pub struct RelaxFailure {
     pub cylinder_fraction: f64,
 }
 
+/// Why the relaxer stopped without a result.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum RelaxError {
+    /// A limit struck.
+    #[error(transparent)]
+    GaveUp(#[from] RelaxFailure),
+    /// The cancel flag was set ([`crate::cancel`]).
+    #[error("the relaxer was cancelled")]
+    Cancelled,
+}
+
 /// The paper's start: every body at a uniformly random centre (and axis), intersections
 /// ignored.
 pub fn random_rve<R: Rng>(boundary: &PeriodicBox, sizes: &[BodySize], rng: &mut R) -> Rve {
@@ -333,8 +345,12 @@ fn rotate(l: &Vec3, w: &Vec3) -> Vec3 {
 }
 
 /// Relaxes `rve` in place until the exact tests find no intersection (see the module
-/// documentation).
-pub fn relax(rve: &mut Rve, settings: &RelaxSettings) -> Result<RelaxReport, RelaxFailure> {
+/// documentation). `cancel` is checked at every step.
+pub fn relax(
+    rve: &mut Rve,
+    settings: &RelaxSettings,
+    cancel: Option<&AtomicBool>,
+) -> Result<RelaxReport, RelaxError> {
     let start = Instant::now();
     let n = rve.bodies.len();
     let ell = rve
@@ -409,6 +425,9 @@ pub fn relax(rve: &mut Rve, settings: &RelaxSettings) -> Result<RelaxReport, Rel
     };
     let mut steps = 0u64;
     while load.contacts > 0 {
+        if crate::cancel::is_set(cancel) {
+            return Err(RelaxError::Cancelled);
+        }
         if steps >= settings.max_steps
             || settings
                 .time_limit
@@ -430,7 +449,8 @@ pub fn relax(rve: &mut Rve, settings: &RelaxSettings) -> Result<RelaxReport, Rel
                 max_depth: load.max_depth / ell,
                 sphere_fraction,
                 cylinder_fraction,
-            });
+            }
+            .into());
         }
         steps += 1;
         // Thermostat coefficients from the kinetic energy at the start of the step.
@@ -559,7 +579,8 @@ pub fn relax(rve: &mut Rve, settings: &RelaxSettings) -> Result<RelaxReport, Rel
             max_depth: 0.0,
             sphere_fraction,
             cylinder_fraction,
-        });
+        }
+        .into());
     }
     Ok(RelaxReport {
         steps,

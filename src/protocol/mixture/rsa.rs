@@ -56,6 +56,7 @@ use crate::geometry::cylinder::{overlaps, overlaps_decided_early, Shape};
 use crate::shape::Vec3;
 use crate::spatial::floor_to_i64;
 use rand::Rng;
+use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 /// Limits of random sequential adsorption.
@@ -152,6 +153,9 @@ pub enum RsaError {
     /// The limits struck.
     #[error(transparent)]
     Failed(#[from] RsaFailure),
+    /// The cancel flag was set ([`crate::cancel`]).
+    #[error("random sequential adsorption was cancelled")]
+    Cancelled,
 }
 
 /// Whether `candidate` intersects one of its own periodic images.
@@ -1110,11 +1114,13 @@ impl Search {
     }
 }
 
-/// Places bodies of the given sizes, in this order, in `boundary` (Algorithm 5).
+/// Places bodies of the given sizes, in this order, in `boundary` (Algorithm 5). `cancel`
+/// is checked at every candidate.
 pub fn rsa_mixture<R: Rng>(
     boundary: &PeriodicBox,
     sizes: &[BodySize],
     limits: &RsaLimits,
+    cancel: Option<&AtomicBool>,
     rng: &mut R,
 ) -> Result<RsaOutcome, RsaError> {
     for s in sizes {
@@ -1159,6 +1165,9 @@ pub fn rsa_mixture<R: Rng>(
             // (Computed once the body has been rejected often: it is at least REFINE_AFTER.)
             let mut map_after = None;
             loop {
+                if crate::cancel::is_set(cancel) {
+                    return Err(RsaError::Cancelled);
+                }
                 // (Asked once per body, at its FINE_GRID_AFTER-th rejection in a row.)
                 if matches!(search, Search::Scan(_))
                     && rejections == FINE_GRID_AFTER
