@@ -12,7 +12,8 @@
 //! 4,failed,,,,,0.8,"stage 0 stopped without reaching its goal (…)"
 //! ```
 //!
-//! A seed may have several rows (a rerun appends); the last one counts ([`read_summary`]).
+//! A seed may have several rows (a rerun appends); the last one counts ([`read_summary`]). A
+//! row cut short by a kill is skipped by the reader and cut off when the summary is reopened.
 //!
 //! **Resume rule** ([`seeds_to_run`]): a rerun of the same seeds into the same directory
 //! skips a seed whose last row is `ok` and whose packing file exists, and a seed whose last
@@ -264,17 +265,20 @@ impl SummaryRow {
     }
 }
 
-/// The complete records of CSV `text` (RFC 4180 quoting), each with its fields. A last
-/// record without its line break (a write cut short) is left out.
-fn records(text: &str) -> Vec<Vec<String>> {
+/// The complete records of CSV `text` (RFC 4180 quoting), each with its fields, and the
+/// length in bytes of the text they take. A last record without its line break (a write cut
+/// short) is left out.
+fn records(text: &str) -> (Vec<Vec<String>>, usize) {
     let mut out = Vec::new();
     let mut fields = Vec::new();
     let mut field = String::new();
-    let mut chars = text.chars().peekable();
+    let mut chars = text.char_indices().peekable();
     let mut quoted = false;
-    while let Some(c) = chars.next() {
+    let mut complete = 0;
+    while let Some((at, c)) = chars.next() {
+        let next = chars.peek().map(|&(_, c)| c);
         match (quoted, c) {
-            (true, '"') if chars.peek() == Some(&'"') => {
+            (true, '"') if next == Some('"') => {
                 chars.next();
                 field.push('"');
             }
@@ -282,15 +286,16 @@ fn records(text: &str) -> Vec<Vec<String>> {
             (true, c) => field.push(c),
             (false, '"') if field.is_empty() => quoted = true,
             (false, ',') => fields.push(std::mem::take(&mut field)),
-            (false, '\r') if chars.peek() == Some(&'\n') => {}
+            (false, '\r') if next == Some('\n') => {}
             (false, '\n') => {
                 fields.push(std::mem::take(&mut field));
                 out.push(std::mem::take(&mut fields));
+                complete = at + 1;
             }
             (false, c) => field.push(c),
         }
     }
-    out
+    (out, complete)
 }
 
 /// The last row of each seed in `dir`'s [`SUMMARY_FILE`], by ascending seed; none when the
@@ -308,7 +313,7 @@ pub fn read_summary(dir: &Path) -> Result<Vec<SummaryRow>, EnsembleError> {
         message,
     };
     let mut rows = std::collections::BTreeMap::new();
-    for (k, fields) in records(&text).iter().enumerate() {
+    for (k, fields) in records(&text).0.iter().enumerate() {
         if k == 0 {
             if fields.join(",") != SUMMARY_HEADER {
                 return Err(bad(1, format!("the header is not `{SUMMARY_HEADER}`")));
@@ -331,14 +336,14 @@ pub struct SummaryWriter {
 
 impl SummaryWriter {
     /// Opens (creating `dir` and the file with its header if need be) the summary of `dir`
-    /// for appending. A last record cut short by a killed writer is ended first, so that
-    /// the rows after it stay whole (the reader skips it).
+    /// for appending. A last record cut short by a killed writer is cut off first (its
+    /// realisation never reported: the resume rule runs it again).
     pub fn open(dir: &Path) -> Result<Self, EnsembleError> {
         std::fs::create_dir_all(dir).map_err(io_error(dir))?;
         let path = dir.join(SUMMARY_FILE);
-        let existing = match std::fs::read(&path) {
-            Ok(bytes) => bytes,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
+        let existing = match std::fs::read_to_string(&path) {
+            Ok(text) => text,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => String::new(),
             Err(e) => return Err(io_error(&path)(e)),
         };
         let mut file = std::fs::OpenOptions::new()
@@ -346,14 +351,14 @@ impl SummaryWriter {
             .append(true)
             .open(&path)
             .map_err(io_error(&path))?;
-        let start = if existing.is_empty() {
-            format!("{SUMMARY_HEADER}\n")
-        } else if existing.ends_with(b"\n") {
-            String::new()
-        } else {
-            "\n".into()
-        };
-        file.write_all(start.as_bytes()).map_err(io_error(&path))?;
+        let complete = records(&existing).1;
+        if complete < existing.len() {
+            file.set_len(complete as u64).map_err(io_error(&path))?;
+        }
+        if complete == 0 {
+            file.write_all(format!("{SUMMARY_HEADER}\n").as_bytes())
+                .map_err(io_error(&path))?;
+        }
         Ok(Self { file, path })
     }
 
@@ -480,12 +485,12 @@ mod tests {
             w.append(r).unwrap();
         }
         drop(w);
-        // A writer killed mid-row leaves a record cut short; reopening ends it.
+        // A writer killed mid-row leaves a record cut short (here inside a quoted message
+        // with a line break); the reader skips it and reopening cuts it off.
         let path = dir.join(SUMMARY_FILE);
-        let mut text = std::fs::read_to_string(&path).unwrap();
-        assert!(text.starts_with(&format!("{SUMMARY_HEADER}\n4,")) || text.contains("\n4,"));
-        text.push_str("6,ok,0.5");
-        std::fs::write(&path, &text).unwrap();
+        let whole = std::fs::read_to_string(&path).unwrap();
+        assert!(whole.starts_with(&format!("{SUMMARY_HEADER}\n3,ok,0.30000000000000004,")));
+        std::fs::write(&path, format!("{whole}6,failed,,,,,0.5,\"cut\nshort")).unwrap();
         let read = read_summary(&dir).unwrap();
         assert_eq!(
             read,
@@ -495,6 +500,10 @@ mod tests {
             .unwrap()
             .append(&row(7, Status::Ok, ""))
             .unwrap();
+        assert_eq!(
+            std::fs::read_to_string(&path).unwrap(),
+            format!("{whole}{}", row(7, Status::Ok, "").to_csv())
+        );
         let read = read_summary(&dir).unwrap();
         assert_eq!(read.len(), 4, "{read:?}");
         assert_eq!(read[3], row(7, Status::Ok, ""));

@@ -270,7 +270,7 @@ fn parse_seconds(text: &str) -> Result<f64, String> {
 
 /// Refuses (exit 2) a run whose memory estimate `(bytes, how)` exceeds the available
 /// memory, before anything is allocated.
-fn check_memory((needed, what): (u64, String)) -> Result<(), ExitCode> {
+pub(crate) fn check_memory((needed, what): (u64, String)) -> Result<(), ExitCode> {
     let hint = format!(
         "--ignore-memory-check (or {}=1)",
         densepack::memory::OVERRIDE_ENV

@@ -219,15 +219,18 @@ fn overrides_reach_the_run_and_bad_input_exits_2_before_any_run() {
             "--seeds: seeds `5..1`: the range 5..1 is empty",
         ),
         (vec!["--jobs", "0"], "1", "--jobs 0: at least 1"),
+        // Every worker holds a run: 2 × 4·10⁹ spheres is refused before anything is made.
+        (
+            vec!["--set", "particles.count=4000000000"],
+            "1,2",
+            "needs about",
+        ),
     ] {
         let o = ensemble(&scene, seeds, &bad_out, &extra);
         let stderr = text(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{extra:?}: {stderr}");
         assert!(stderr.contains(says), "{extra:?}: {stderr}");
-        assert!(
-            !packing_path(&bad_out, 1).exists(),
-            "{extra:?}: nothing ran"
-        );
+        assert!(!bad_out.exists(), "{extra:?}: nothing was written");
     }
     // `run --set` checks the same way.
     let o = densepack(&[

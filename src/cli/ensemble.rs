@@ -33,6 +33,10 @@ pub struct EnsembleArgs {
     /// Print nothing but errors.
     #[arg(long)]
     quiet: bool,
+    /// Run even if --jobs times the scene's memory estimate exceeds the memory available.
+    /// The same as setting DENSEPACK_IGNORE_MEMORY_CHECK=1.
+    #[arg(long)]
+    ignore_memory_check: bool,
 }
 
 /// The scene of file `path` with the `--set` overrides applied in order and then `seed`
@@ -99,13 +103,6 @@ pub fn run(args: &EnsembleArgs) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let mut writer = match SummaryWriter::open(&args.out) {
-        Ok(w) => w,
-        Err(e) => {
-            errln!("error: --out: {e}");
-            return ExitCode::from(2);
-        }
-    };
     let todo = match seeds_to_run(&args.out, &seeds) {
         Ok(t) => t,
         Err(e) => {
@@ -114,6 +111,21 @@ pub fn run(args: &EnsembleArgs) -> ExitCode {
         }
     };
     let jobs = jobs.min(todo.len()).max(1);
+    if !(args.ignore_memory_check || densepack::memory::overridden()) {
+        // Every worker holds one run at a time.
+        let (bytes, what) = scene.memory_estimate();
+        let needed = bytes.saturating_mul(jobs as u64);
+        if let Err(code) = crate::check_memory((needed, format!("{jobs} jobs × ({what})"))) {
+            return code;
+        }
+    }
+    let mut writer = match SummaryWriter::open(&args.out) {
+        Ok(w) => w,
+        Err(e) => {
+            errln!("error: --out: {e}");
+            return ExitCode::from(2);
+        }
+    };
     if !args.quiet {
         outln!(
             "densepack ensemble: {} of {} seeds to run ({} done or failed before) on {jobs} \
