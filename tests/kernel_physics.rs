@@ -228,6 +228,51 @@ fn eight_spheres_in_a_walled_cube_jam_as_a_simple_cubic_lattice() {
     assert_no_overlap(&out.packing);
 }
 
+/// Paper 001, Fig. 5 ("for two particles, the densest arrangement is the placement in
+/// opposite corners"): each sphere touches the three walls of its corner and the other
+/// along the body diagonal, √3 (L − d) = d, so d = √3 L / (1 + √3) and
+/// φ = 2 (π/6) d³ / L³ = (π/3) (√3 / (1 + √3))³ ≈ 0.26683.
+#[test]
+fn two_spheres_in_a_walled_cube_jam_in_opposite_corners() {
+    let edge = 2.0;
+    let ratio = 3f64.sqrt() / (1.0 + 3f64.sqrt());
+    let exact = std::f64::consts::PI / 3.0 * ratio.powi(3);
+    for seed in [3, 4, 5] {
+        let out = run_toml(&walled_cube(2, seed));
+        let phi = recomputed_phi(&out.packing);
+        assert!(
+            (phi - exact).abs() < 1e-3,
+            "seed {seed}: φ = {phi}, exact {exact}"
+        );
+        let d = edge * ratio;
+        let centres: Vec<[f64; 3]> = out
+            .packing
+            .particles
+            .iter()
+            .map(|p| match p {
+                densepack::io::packing::ParticleRecord::Sphere { center, .. } => *center,
+                _ => panic!("spheres expected"),
+            })
+            .collect();
+        // Every coordinate at d/2 from one wall, and the two spheres on opposite sides of
+        // the cube along every axis.
+        for k in 0..3 {
+            let (a, b) = (centres[0][k], centres[1][k]);
+            for x in [a, b] {
+                assert!(
+                    (x - d / 2.0).abs() < 1e-3 || (x - (edge - d / 2.0)).abs() < 1e-3,
+                    "seed {seed}: centres {centres:?}"
+                );
+            }
+            assert!(
+                ((a - b).abs() - (edge - d)).abs() < 1e-3,
+                "seed {seed}: centres {centres:?}"
+            );
+        }
+        assert_no_overlap(&out.packing);
+    }
+}
+
 #[test]
 fn heap_and_calendar_queues_give_bit_identical_packings() {
     let scene = |queue: &str| {
