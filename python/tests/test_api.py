@@ -123,7 +123,7 @@ def test_voxels_and_exports_agree_with_numpy_readers(scenes, tmp_path):
     assert np.allclose(table[:, :3], packing.centers, rtol=0, atol=1e-12)
     with pytest.raises(ValueError, match="voxels"):
         packing.export(tmp_path / "p2.csv", "csv", voxels=8)
-    with pytest.raises(ValueError, match="gmsh, vtk, npy, raw, csv"):
+    with pytest.raises(ValueError, match="gmsh, vtk, vti, abaqus, npy, raw, csv, xyzd, lammps"):
         packing.export(tmp_path / "p.xyz", "xyz")
     assert not (tmp_path / "p2.csv").exists()
 
