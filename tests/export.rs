@@ -36,7 +36,14 @@ fn bad_export_options_fail_with_exit_code_2_name_the_option_and_write_nothing() 
         (&["--format", "vti", "--out", "x.vtk"], "--out"),
         (&["--format", "abaqus", "--out", "x.abq"], "--out"),
         (
-            &["--format", "abaqus", "--out", "y.inp", "--partial-volume", "2"],
+            &[
+                "--format",
+                "abaqus",
+                "--out",
+                "y.inp",
+                "--partial-volume",
+                "2",
+            ],
             "--partial-volume",
         ),
         (

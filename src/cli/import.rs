@@ -81,13 +81,20 @@ fn options(args: &ImportArgs) -> Result<ImportOptions, String> {
             height,
         }),
         (None, Some(c)) => {
-            return Err(format!("--cylinder: {} values given, expected RADIUS,HEIGHT", c.len()))
+            return Err(format!(
+                "--cylinder: {} values given, expected RADIUS,HEIGHT",
+                c.len()
+            ))
         }
         _ => None,
     };
     if let Some(c) = &container {
         c.check().map_err(|e| {
-            let option = if args.r#box.is_some() { "--box" } else { "--cylinder" };
+            let option = if args.r#box.is_some() {
+                "--box"
+            } else {
+                "--cylinder"
+            };
             format!("{option}: {e}")
         })?;
     }

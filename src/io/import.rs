@@ -134,7 +134,12 @@ fn number(text: &str, line: usize, field: &str) -> Result<f64, Bad> {
 }
 
 /// A sphere, its diameter checked to be > 0.
-fn sphere(center: [f64; 3], diameter: f64, line: usize, field: &str) -> Result<ParticleRecord, Bad> {
+fn sphere(
+    center: [f64; 3],
+    diameter: f64,
+    line: usize,
+    field: &str,
+) -> Result<ParticleRecord, Bad> {
     if diameter > 0.0 {
         Ok(ParticleRecord::Sphere {
             center,
@@ -160,7 +165,11 @@ fn read_csv(text: &str) -> Result<Read, Bad> {
     let mut xyz = [0; 3];
     for (k, name) in ["x", "y", "z"].into_iter().enumerate() {
         xyz[k] = column(name).ok_or_else(|| {
-            bad(header_line, "header", format!("no column {name:?} (columns: {header})"))
+            bad(
+                header_line,
+                "header",
+                format!("no column {name:?} (columns: {header})"),
+            )
         })?;
     }
     // (column, factor to a diameter, name)
@@ -188,7 +197,11 @@ fn read_csv(text: &str) -> Result<Read, Bad> {
         }
         if let Some(c) = kind {
             if cells[c].trim() != "sphere" {
-                return Err(bad(line, "type", format!("{:?}: only spheres are read", cells[c])));
+                return Err(bad(
+                    line,
+                    "type",
+                    format!("{:?}: only spheres are read", cells[c]),
+                ));
             }
         }
         let center = [
@@ -208,7 +221,7 @@ fn read_csv(text: &str) -> Result<Read, Bad> {
 /// `xyzd`: see the module docs.
 fn read_xyzd(bytes: &[u8]) -> Result<Read, Bad> {
     const RECORD: usize = 32;
-    if bytes.len() % RECORD != 0 {
+    if !bytes.len().is_multiple_of(RECORD) {
         return Err(Bad {
             at: "end of file".into(),
             field: "length".into(),
@@ -272,13 +285,19 @@ fn read_lammps_data(text: &str, periodic: Option<[bool; 3]>) -> Result<Read, Bad
         let Some(raw) = lines.get(n - 1) else {
             return Err(bad(n, "Atoms", "no Atoms section"));
         };
-        let words: Vec<&str> = raw.split('#').next().unwrap_or("").split_whitespace().collect();
+        let words: Vec<&str> = raw
+            .split('#')
+            .next()
+            .unwrap_or("")
+            .split_whitespace()
+            .collect();
         match words[..] {
             [] => continue,
             [count, "atoms"] => {
-                atoms = Some(count.parse().map_err(|_| {
-                    bad(n, "atoms", format!("{count:?} is not a count of atoms"))
-                })?)
+                atoms =
+                    Some(count.parse().map_err(|_| {
+                        bad(n, "atoms", format!("{count:?} is not a count of atoms"))
+                    })?)
             }
             [a, b, lo_name, hi_name] if lo_name.ends_with("lo") && hi_name.ends_with("hi") => {
                 let k = match lo_name {
@@ -299,13 +318,20 @@ fn read_lammps_data(text: &str, periodic: Option<[bool; 3]>) -> Result<Read, Bad
                     return Err(bad(
                         n,
                         "Atoms",
-                        format!("atom style {:?}: only \"sphere\" is read", style.unwrap_or("")),
+                        format!(
+                            "atom style {:?}: only \"sphere\" is read",
+                            style.unwrap_or("")
+                        ),
                     ));
                 }
                 break n;
             }
             [first, ..] if first.chars().next().is_some_and(char::is_alphabetic) => {
-                return Err(bad(n, first, "a section before Atoms (only Atoms is read; put it first)"))
+                return Err(bad(
+                    n,
+                    first,
+                    "a section before Atoms (only Atoms is read; put it first)",
+                ))
             }
             _ => {} // other header keywords (atom types, bonds, …)
         }
@@ -313,7 +339,11 @@ fn read_lammps_data(text: &str, periodic: Option<[bool; 3]>) -> Result<Read, Bad
     let atoms = atoms.ok_or_else(|| bad(section, "atoms", "the header has no \"N atoms\" line"))?;
     if let Some(k) = (0..3).find(|&k| lo[k].is_nan()) {
         let name = ["x", "y", "z"][k];
-        return Err(bad(section, format!("{name}lo {name}hi"), "missing from the header"));
+        return Err(bad(
+            section,
+            format!("{name}lo {name}hi"),
+            "missing from the header",
+        ));
     }
     let mut particles = Vec::with_capacity(atoms);
     let mut n = section;
@@ -326,7 +356,12 @@ fn read_lammps_data(text: &str, periodic: Option<[bool; 3]>) -> Result<Read, Bad
                 format!("{} atom lines, the header says {atoms}", particles.len()),
             ));
         };
-        let words: Vec<&str> = raw.split('#').next().unwrap_or("").split_whitespace().collect();
+        let words: Vec<&str> = raw
+            .split('#')
+            .next()
+            .unwrap_or("")
+            .split_whitespace()
+            .collect();
         if words.is_empty() {
             continue;
         }
@@ -345,7 +380,12 @@ fn read_lammps_data(text: &str, periodic: Option<[bool; 3]>) -> Result<Read, Bad
             number(words[5], n, "y")?,
             number(words[6], n, "z")?,
         ];
-        particles.push(sphere(center, number(words[2], n, "diameter")?, n, "diameter")?);
+        particles.push(sphere(
+            center,
+            number(words[2], n, "diameter")?,
+            n,
+            "diameter",
+        )?);
     }
     Ok(Read {
         particles,
@@ -375,7 +415,11 @@ fn read_lammps_dump(text: &str) -> Result<Read, Bad> {
             continue;
         }
         if item != "ITEM: TIMESTEP" {
-            return Err(bad(n, "ITEM", format!("{item:?}: expected \"ITEM: TIMESTEP\"")));
+            return Err(bad(
+                n,
+                "ITEM",
+                format!("{item:?}: expected \"ITEM: TIMESTEP\""),
+            ));
         }
         n += 2;
         if line(n)?.trim() != "ITEM: NUMBER OF ATOMS" {
@@ -396,7 +440,11 @@ fn read_lammps_dump(text: &str) -> Result<Read, Bad> {
             return Err(bad(n, "BOX BOUNDS", "triclinic boxes are not supported"));
         }
         if flags.len() != 3 {
-            return Err(bad(n, "BOX BOUNDS", "expected three boundary flags (pp pp ff)"));
+            return Err(bad(
+                n,
+                "BOX BOUNDS",
+                "expected three boundary flags (pp pp ff)",
+            ));
         }
         let periodic: [bool; 3] = std::array::from_fn(|k| flags[k] == "pp");
         let mut lo = [0.0; 3];
@@ -416,7 +464,11 @@ fn read_lammps_dump(text: &str) -> Result<Read, Bad> {
             Some(rest) => rest.split_whitespace().collect(),
             None => return Err(bad(n, "ITEM", "expected \"ITEM: ATOMS …\"")),
         };
-        let find = |names: &[&str]| names.iter().find_map(|m| columns.iter().position(|c| c == m));
+        let find = |names: &[&str]| {
+            names
+                .iter()
+                .find_map(|m| columns.iter().position(|c| c == m))
+        };
         let mut xyz = [(0, false); 3];
         for (k, name) in ["x", "y", "z"].into_iter().enumerate() {
             let plain = [name.to_string(), format!("{name}u")];
@@ -450,7 +502,11 @@ fn read_lammps_dump(text: &str) -> Result<Read, Bad> {
             for k in 0..3 {
                 let (c, scaled) = xyz[k];
                 let v = number(words[c], n, columns[c])?;
-                center[k] = if scaled { lo[k] + v * (hi[k] - lo[k]) } else { v };
+                center[k] = if scaled {
+                    lo[k] + v * (hi[k] - lo[k])
+                } else {
+                    v
+                };
             }
             let d = factor * number(words[size], n, size_name)?;
             particles.push(sphere(center, d, n, size_name)?);
@@ -469,7 +525,11 @@ fn read_lammps_dump(text: &str) -> Result<Read, Bad> {
 
 /// Reads `path` as `source` into a packing (see the module docs); `options` gives the
 /// container where the file has none.
-pub fn import(path: &Path, source: Source, options: &ImportOptions) -> Result<Packing, ImportError> {
+pub fn import(
+    path: &Path,
+    source: Source,
+    options: &ImportOptions,
+) -> Result<Packing, ImportError> {
     let name = path.display().to_string();
     let io = |source| ImportError::Io {
         path: name.clone(),
@@ -568,10 +628,19 @@ mod tests {
 
     #[test]
     fn malformed_csv_names_the_line_and_the_field() {
-        assert_eq!(err(read_csv("x,y,z,r\n1,2,3,0.5\n1,2,nan,1\n")), "line 3: z: \"nan\" is not a finite number");
-        assert_eq!(err(read_csv("x,y,z,r\n1,2,3,-1\n")), "line 2: r: = -2 must be > 0");
+        assert_eq!(
+            err(read_csv("x,y,z,r\n1,2,3,0.5\n1,2,nan,1\n")),
+            "line 3: z: \"nan\" is not a finite number"
+        );
+        assert_eq!(
+            err(read_csv("x,y,z,r\n1,2,3,-1\n")),
+            "line 2: r: = -2 must be > 0"
+        );
         assert!(err(read_csv("x,y,r\n")).starts_with("line 1: header: no column \"z\""));
-        assert_eq!(err(read_csv("x,y,z,r\n1,2,3\n")), "line 2: row: 3 columns, the header has 4");
+        assert_eq!(
+            err(read_csv("x,y,z,r\n1,2,3\n")),
+            "line 2: row: 3 columns, the header has 4"
+        );
         assert!(err(read_csv("type,x,y,z,r\ncylinder,1,2,3,4\n")).starts_with("line 2: type:"));
     }
 
@@ -582,9 +651,15 @@ mod tests {
             .iter()
             .flat_map(|v| v.to_le_bytes())
             .collect();
-        assert_eq!(err(read_xyzd(&bytes)), "record 2 (byte 32): d: = 0 must be > 0");
+        assert_eq!(
+            err(read_xyzd(&bytes)),
+            "record 2 (byte 32): d: = 0 must be > 0"
+        );
         bytes[8..16].copy_from_slice(&f64::INFINITY.to_le_bytes());
-        assert_eq!(err(read_xyzd(&bytes)), "record 1 (byte 0): y: = inf is not a finite number");
+        assert_eq!(
+            err(read_xyzd(&bytes)),
+            "record 1 (byte 0): y: = inf is not a finite number"
+        );
     }
 
     const DATA: &str = "LAMMPS data file: test (boundary p p f)\n\n2 atoms\n1 atom types\n\n\
@@ -611,25 +686,40 @@ mod tests {
             })
         );
         let walls = read_lammps_data(DATA, Some([false; 3])).unwrap();
-        assert!(matches!(walls.container, Some(ContainerRecord::Box { periodic: [false, false, false], .. })));
+        assert!(matches!(
+            walls.container,
+            Some(ContainerRecord::Box {
+                periodic: [false, false, false],
+                ..
+            })
+        ));
     }
 
     #[test]
     fn malformed_lammps_data_names_the_line_and_the_field() {
         assert_eq!(
-            err(read_lammps_data(&DATA.replace("1 1 1.5 1 1 2 3", "1 1 1.5 1 1 x 3"), None)),
+            err(read_lammps_data(
+                &DATA.replace("1 1 1.5 1 1 2 3", "1 1 1.5 1 1 x 3"),
+                None
+            )),
             "line 12: y: \"x\" is not a finite number"
         );
         assert_eq!(
-            err(read_lammps_data(&DATA.replace("# sphere", "# atomic"), None)),
+            err(read_lammps_data(
+                &DATA.replace("# sphere", "# atomic"),
+                None
+            )),
             "line 10: Atoms: atom style \"atomic\": only \"sphere\" is read"
         );
         assert_eq!(
             err(read_lammps_data(&DATA.replace("2 atoms", "3 atoms"), None)),
             "line 14: Atoms: 2 atom lines, the header says 3"
         );
-        assert!(err(read_lammps_data(&DATA.replace("1 1 1.5 1 1 2 3", "1 1 1.5 1 1 2"), None))
-            .starts_with("line 12: Atoms: 6 columns"));
+        assert!(err(read_lammps_data(
+            &DATA.replace("1 1 1.5 1 1 2 3", "1 1 1.5 1 1 2"),
+            None
+        ))
+        .starts_with("line 12: Atoms: 6 columns"));
     }
 
     const DUMP: &str = "ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n1\nITEM: BOX BOUNDS pp pp ff\n\
@@ -673,11 +763,16 @@ mod tests {
             "line 20: ATOMS: 4 values for 5 columns"
         );
         assert_eq!(
-            err(read_lammps_dump(&DUMP.replace("0 4\n0 4\n0 8\nITEM: ATOMS id x", "0 4\n0 q\n0 8\nITEM: ATOMS id x"))),
+            err(read_lammps_dump(&DUMP.replace(
+                "0 4\n0 4\n0 8\nITEM: ATOMS id x",
+                "0 4\n0 q\n0 8\nITEM: ATOMS id x"
+            ))),
             "line 17: yhi: \"q\" is not a finite number"
         );
         assert_eq!(
-            err(read_lammps_dump(&DUMP.replace("id x y z diameter", "id x y z"))),
+            err(read_lammps_dump(
+                &DUMP.replace("id x y z diameter", "id x y z")
+            )),
             "line 19: ATOMS: no column radius or diameter"
         );
     }

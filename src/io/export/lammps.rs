@@ -58,15 +58,7 @@ pub fn write_data(packing: &Packing, path: &Path) -> Result<(), ExportError> {
         writeln!(w, "Atoms # sphere")?;
         writeln!(w)?;
         for (id, (c, r)) in spheres.iter().enumerate() {
-            writeln!(
-                w,
-                "{} 1 {} 1 {} {} {}",
-                id + 1,
-                2.0 * r,
-                c[0],
-                c[1],
-                c[2]
-            )?;
+            writeln!(w, "{} 1 {} 1 {} {} {}", id + 1, 2.0 * r, c[0], c[1], c[2])?;
         }
         Ok(())
     })

@@ -31,9 +31,8 @@ const BLOCK: usize = 1 << 20;
 fn vtk_bytes(image: &VoxelImage, shape: [usize; 3]) -> (Vec<u8>, &'static str, &'static str) {
     let [nx, ny, nz] = shape;
     // C order index of VTK cell (i, j, k).
-    let c_index = (0..nz).flat_map(move |k| {
-        (0..ny).flat_map(move |j| (0..nx).map(move |i| (i * ny + j) * nz + k))
-    });
+    let c_index = (0..nz)
+        .flat_map(move |k| (0..ny).flat_map(move |j| (0..nx).map(move |i| (i * ny + j) * nz + k)));
     match image {
         VoxelImage::Phase(v) => (c_index.map(|c| v[c]).collect(), "UInt8", "phase"),
         VoxelImage::Particle(v) => (
@@ -92,7 +91,11 @@ pub fn write_vti(
     let [hx, hy, hz] = grid.spacing;
     super::write_file(path, |w| {
         writeln!(w, "<?xml version=\"1.0\"?>")?;
-        writeln!(w, "<!-- {} -->", provenance_line(packing).replace("--", "-"))?;
+        writeln!(
+            w,
+            "<!-- {} -->",
+            provenance_line(packing).replace("--", "-")
+        )?;
         writeln!(
             w,
             "<VTKFile type=\"ImageData\" version=\"1.0\" byte_order=\"LittleEndian\" \
