@@ -1,7 +1,8 @@
 //! `densepack export`: what the files contain is checked with real readers by
-//! `tests/readers/run_export_checks.sh` (Gmsh, meshio, numpy; run by `.ci/run`). These tests
-//! cover the command line: bad options fail with exit code 2, name the option and write
-//! nothing; the CSV round-trips bit for bit.
+//! `tests/readers/run_export_checks.sh` (Gmsh, meshio, the VTK Python package, numpy; run by
+//! `.ci/run`). These tests cover the command line: bad options fail with exit code 2, name
+//! the option and write nothing; sphere-only formats refuse other shapes; the CSV round-trips
+//! bit for bit; a compact packing reads back equal.
 
 mod common;
 

@@ -17,9 +17,13 @@
 //!
 //! Partial-volume images have no Abaqus form: [`Labels::PartialVolume`] is refused.
 
-use super::voxel::{image_and_summary, phase_id, Labels, VoxelImage, VoxelSummary, PHASE_NAMES};
+use super::voxel::{
+    image_and_summary, phase_id, Labels, VoxelImage, VoxelSummary, OUTSIDE_PARTICLE, OUTSIDE_PHASE,
+    PHASE_NAMES,
+};
 use super::{provenance_line, ExportError};
 use crate::io::packing::{ContainerRecord, Packing};
+use std::borrow::Cow;
 use std::io::Write;
 use std::path::Path;
 
@@ -54,13 +58,13 @@ pub fn write_inp(
     let (image, summary) = image_and_summary(packing, voxels, labels)?;
     let [nx, ny, nz] = summary.grid.shape;
     // Phase per voxel in C order (u8::MAX outside), and the particle label when asked for.
-    let (phase, particle): (Vec<u8>, Option<&Vec<u32>>) = match &image {
-        VoxelImage::Phase(v) => (v.clone(), None),
+    let (phase, particle): (Cow<[u8]>, Option<&[u32]>) = match &image {
+        VoxelImage::Phase(v) => (Cow::Borrowed(v), None),
         VoxelImage::Particle(v) => (
             v.iter()
                 .map(|&l| match l {
                     0 => 0,
-                    super::voxel::OUTSIDE_PARTICLE => super::voxel::OUTSIDE_PHASE,
+                    OUTSIDE_PARTICLE => OUTSIDE_PHASE,
                     l => phase_id(&packing.particles[l as usize - 1]),
                 })
                 .collect(),
@@ -70,7 +74,7 @@ pub fn write_inp(
     };
     let node = |i: usize, j: usize, k: usize| 1 + i + (nx + 1) * (j + (ny + 1) * k);
     let c_index = |i: usize, j: usize, k: usize| (i * ny + j) * nz + k;
-    let inside = |i, j, k| phase[c_index(i, j, k)] != super::voxel::OUTSIDE_PHASE;
+    let inside = |i, j, k| phase[c_index(i, j, k)] != OUTSIDE_PHASE;
     let mut used = vec![false; (nx + 1) * (ny + 1) * (nz + 1)];
     let mut phase_sets: Vec<Vec<usize>> = vec![Vec::new(); PHASE_NAMES.len()];
     let mut particle_sets: Vec<Vec<usize>> =
