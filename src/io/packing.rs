@@ -392,8 +392,8 @@ impl Packing {
         Ok(packing)
     }
 
-    /// Writes the packing pretty-printed (one field per line, indented; about 180 bytes per
-    /// sphere, 530 per ellipsoid), atomically: streamed to a temporary file beside `path`,
+    /// Writes the packing pretty-printed (one field per line, indented; measured 181 bytes per
+    /// sphere (10 000 jammed spheres), 408 per ellipsoid (3000)), atomically: streamed to a temporary file beside `path`,
     /// then renamed, so an existing file is never left half-written and no copy of the whole
     /// text is held in memory.
     pub fn write(&self, path: &Path) -> Result<(), PackingError> {
@@ -401,7 +401,8 @@ impl Packing {
     }
 
     /// Writes the packing like [`Packing::write`] but compact: one line, no indentation
-    /// (about 110 bytes per sphere; the same JSON value).
+    /// (113 bytes per sphere, 255 per ellipsoid, for the packings above; the same JSON
+    /// value).
     pub fn write_compact(&self, path: &Path) -> Result<(), PackingError> {
         self.write_json(path, false)
     }
