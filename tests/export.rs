@@ -1,7 +1,8 @@
 //! `densepack export`: what the files contain is checked with real readers by
-//! `tests/readers/run_export_checks.sh` (Gmsh, meshio, numpy; run by `.ci/run`). These tests
-//! cover the command line: bad options fail with exit code 2, name the option and write
-//! nothing; the CSV round-trips bit for bit.
+//! `tests/readers/run_export_checks.sh` (Gmsh, meshio, the VTK Python package, numpy; run by
+//! `.ci/run`). These tests cover the command line: bad options fail with exit code 2, name
+//! the option and write nothing; sphere-only formats refuse other shapes; the CSV round-trips
+//! bit for bit; a compact packing reads back equal.
 
 mod common;
 
@@ -31,8 +32,25 @@ fn packing_file(name: &str) -> (PathBuf, PathBuf) {
 fn bad_export_options_fail_with_exit_code_2_name_the_option_and_write_nothing() {
     let (dir, packing) = packing_file("bad");
     let p = packing.to_str().unwrap();
-    let cases: [(&[&str], &str); 5] = [
+    let cases: [(&[&str], &str); 9] = [
         (&["--format", "vtk", "--out", "x.vtk"], "--out"),
+        (&["--format", "vti", "--out", "x.vtk"], "--out"),
+        (&["--format", "abaqus", "--out", "x.abq"], "--out"),
+        (
+            &[
+                "--format",
+                "abaqus",
+                "--out",
+                "y.inp",
+                "--partial-volume",
+                "2",
+            ],
+            "--partial-volume",
+        ),
+        (
+            &["--format", "lammps", "--out", "x.data", "--voxels", "10"],
+            "--voxels",
+        ),
         (
             &["--format", "gmsh", "--out", "x.geo", "--interface", "0.9"],
             "--interface",
@@ -91,4 +109,62 @@ fn csv_export_round_trips_every_sphere_bit_for_bit() {
         };
         assert_eq!(row, &vec![center[0], center[1], center[2], *radius]);
     }
+}
+
+#[test]
+fn sphere_only_formats_refuse_other_shapes_with_exit_code_2_and_write_nothing() {
+    let dir = std::env::temp_dir().join(format!("densepack-export-shapes-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/scenes/export_mixture.toml"
+    );
+    let packing = dir.join("m.json");
+    let run = densepack(&["run", scene, "--out", packing.to_str().unwrap(), "--quiet"]);
+    assert!(run.status.success());
+    for (format, file) in [("xyzd", "m.xyzd"), ("lammps", "m.data")] {
+        let out = dir.join(file);
+        let result = densepack(&[
+            "export",
+            packing.to_str().unwrap(),
+            "--format",
+            format,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let stderr = String::from_utf8_lossy(&result.stderr);
+        assert_eq!(result.status.code(), Some(2), "{format}: {stderr}");
+        assert!(
+            stderr.contains(&format!("{format} takes spheres only")) && stderr.contains("cylinder"),
+            "{format}: {stderr}"
+        );
+        assert!(!out.exists());
+    }
+}
+
+#[test]
+fn a_compact_packing_is_one_line_and_reads_back_equal_to_the_pretty_one() {
+    let (dir, pretty) = packing_file("compact");
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/scenes/export_periodic.toml"
+    );
+    let compact = dir.join("c.json");
+    let run = densepack(&[
+        "run",
+        scene,
+        "--out",
+        compact.to_str().unwrap(),
+        "--quiet",
+        "--compact",
+    ]);
+    assert!(run.status.success());
+    let text = std::fs::read_to_string(&compact).unwrap();
+    assert_eq!(text.lines().count(), 1);
+    let read = |p: &std::path::Path| densepack::io::packing::Packing::read(p).unwrap();
+    let (a, b) = (read(&pretty), read(&compact));
+    assert_eq!(a.particles, b.particles);
+    assert_eq!(a.container, b.container);
+    assert!(text.len() < std::fs::metadata(&pretty).unwrap().len() as usize);
 }

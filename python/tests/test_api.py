@@ -121,9 +121,15 @@ def test_voxels_and_exports_agree_with_numpy_readers(scenes, tmp_path):
     packing.export(tmp_path / "p.csv", "csv")
     table = np.loadtxt(tmp_path / "p.csv", delimiter=",", skiprows=1, comments="#")
     assert np.allclose(table[:, :3], packing.centers, rtol=0, atol=1e-12)
+    packing.export(tmp_path / "p.xyzd", "xyzd")
+    xyzd = np.fromfile(tmp_path / "p.xyzd", dtype="<f8").reshape(-1, 4)
+    assert np.array_equal(xyzd[:, :3], packing.centers)
+    assert np.array_equal(xyzd[:, 3], 2 * packing.radii)
+    report = packing.export(tmp_path / "v.vti", "vti", voxels=20)
+    assert report["sidecar"] is None and list(report["shape"]) == [20, 20, 20]
     with pytest.raises(ValueError, match="voxels"):
         packing.export(tmp_path / "p2.csv", "csv", voxels=8)
-    with pytest.raises(ValueError, match="gmsh, vtk, npy, raw, csv"):
+    with pytest.raises(ValueError, match="gmsh, vtk, vti, abaqus, npy, raw, csv, xyzd, lammps"):
         packing.export(tmp_path / "p.xyz", "xyz")
     assert not (tmp_path / "p2.csv").exists()
 

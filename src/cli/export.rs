@@ -17,12 +17,21 @@ pub enum FormatArg {
     Gmsh,
     /// VTK `.vtu` points with radius, semi_axes, orientation (ParaView glyphs).
     Vtk,
+    /// VTK `.vti` image data of the voxel image (binary, zlib), for FFT solvers and ParaView.
+    Vti,
+    /// Abaqus `.inp` voxel model: C3D8R elements, an element set per phase (per particle
+    /// with --labels particle), node sets XMIN … ZMAX.
+    Abaqus,
     /// Voxel label image as `.npy`, with a `FILE.json` sidecar.
     Npy,
     /// Voxel label image as raw bytes, with a `FILE.json` sidecar.
     Raw,
-    /// CSV table `x,y,z,r`.
+    /// CSV table: `x,y,z,r` for spheres, 15 columns with other shapes.
     Csv,
+    /// PackingGeneration's binary `.xyzd` (little-endian doubles x y z d), spheres.
+    Xyzd,
+    /// LAMMPS data file, atom style sphere (id type diameter density x y z), spheres.
+    Lammps,
 }
 
 /// Voxel label kinds on the command line.
@@ -45,7 +54,7 @@ pub struct ExportArgs {
     /// Output file (written atomically).
     #[arg(long)]
     out: PathBuf,
-    /// Voxel formats: voxels along the longest container edge [default: 128].
+    /// Voxel formats (npy, raw, vti, abaqus): voxels along the longest container edge [default: 128].
     #[arg(long)]
     voxels: Option<usize>,
     /// Voxel formats: what a label means [default: phase].
@@ -72,9 +81,13 @@ impl FormatArg {
         match self {
             FormatArg::Gmsh => Format::Gmsh,
             FormatArg::Vtk => Format::Vtk,
+            FormatArg::Vti => Format::Vti,
+            FormatArg::Abaqus => Format::Abaqus,
             FormatArg::Npy => Format::Npy,
             FormatArg::Raw => Format::Raw,
             FormatArg::Csv => Format::Csv,
+            FormatArg::Xyzd => Format::Xyzd,
+            FormatArg::Lammps => Format::Lammps,
         }
     }
 }
@@ -104,14 +117,14 @@ pub fn run(args: &ExportArgs) -> ExitCode {
     let out = &args.out;
     let sidecar = voxel::sidecar_path(out);
     let mut outputs: Vec<super::paths::Named> = vec![("--out", out)];
-    if format.is_voxel() {
+    if format.has_sidecar() {
         outputs.push(("the sidecar (--out + .json)", &sidecar));
     }
     if let Err(e) = super::paths::check_outputs(&outputs, &[("packing", &args.packing)]) {
         errln!("error: {e}");
         return ExitCode::from(2);
     }
-    if format.is_voxel() && !densepack::memory::overridden() {
+    if format.uses_voxels() && !densepack::memory::overridden() {
         // The image is built whole in memory before it is written.
         let voxels = args.voxels.unwrap_or(DEFAULT_VOXELS);
         if let Ok(grid) = voxel::Grid::new(&packing.container, voxels) {
@@ -164,10 +177,12 @@ pub fn run(args: &ExportArgs) -> ExitCode {
         }
         Exported::File => format!("wrote {}", out.display()),
         Exported::Voxels(s) => format!(
-            "wrote {} and {}: {}x{}x{} voxels of {:.4e} x {:.4e} x {:.4e}; packing fraction exact {:.6}, \
+            "wrote {}{}: {}x{}x{} voxels of {:.4e} x {:.4e} x {:.4e}; packing fraction exact {:.6}, \
              voxels {:.6} (difference {:+.2e}, first-order bound {:.2e})",
             out.display(),
-            s.sidecar.display(),
+            s.sidecar
+                .as_ref()
+                .map_or(String::new(), |p| format!(" and {}", p.display())),
             s.grid.shape[0],
             s.grid.shape[1],
             s.grid.shape[2],

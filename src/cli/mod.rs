@@ -8,6 +8,7 @@ pub mod analyse;
 pub mod bench;
 pub mod ensemble;
 pub mod export;
+pub mod import;
 pub mod init;
 pub mod paths;
 pub mod plot;

@@ -2,6 +2,7 @@
 
 pub mod checkpoint;
 pub mod export;
+pub mod import;
 pub mod packing;
 pub mod scene;
 pub mod units;

@@ -185,8 +185,10 @@ impl ParticleRecord {
     }
 }
 
-/// Run statistics stored with a packing.
+/// Run statistics stored with a packing (every field may be absent: packings of other tools
+/// read with zeros, `null` and an empty stop reason).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
 pub struct PackingStats {
     /// Packing fraction of the written particles.
     pub packing_fraction: f64,
@@ -218,15 +220,19 @@ pub struct Packing {
     pub container: ContainerRecord,
     /// The particles.
     pub particles: Vec<ParticleRecord>,
-    /// Guaranteed smallest surface-to-surface gap between particles.
+    /// Guaranteed smallest surface-to-surface gap between particles (absent: 0, no gap
+    /// promised beyond not overlapping).
+    #[serde(default)]
     pub min_gap: f64,
     /// Guaranteed smallest gap between a particle's surface and a wall; absent means
     /// `min_gap / 2`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub wall_gap: Option<f64>,
-    /// Seed of the run.
+    /// Seed of the run (absent: 0).
+    #[serde(default)]
     pub seed: u64,
-    /// Statistics.
+    /// Statistics (absent: empty).
+    #[serde(default)]
     pub stats: PackingStats,
     /// Where the packing came from (absent in files written by other tools).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -249,12 +255,44 @@ pub struct Provenance {
     pub scene: serde_json::Value,
     /// Wall-clock timings.
     pub timings: Timings,
-    /// When the run finished, seconds since the Unix epoch.
+    /// When the run finished (or the import was made), seconds since the Unix epoch.
     pub finished_unix_seconds: u64,
+    /// The foreign file the particles were imported from (`densepack import`); absent for
+    /// packings densepack made.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub imported_from: Option<ImportedFrom>,
 }
 
-/// Wall-clock seconds of the phases of a run.
+/// The file a packing was imported from ([`crate::io::import`]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ImportedFrom {
+    /// The file name (without its directory).
+    pub file: String,
+    /// The format it was read as (`csv`, `xyzd`, `lammps-data`, `lammps-dump`, `json`).
+    pub format: String,
+}
+
+impl Provenance {
+    /// The provenance of a packing made now by this build of densepack: `scene` (the
+    /// resolved scene, `null` for an import), `seed` and `timings`; not imported.
+    pub fn new(scene: serde_json::Value, seed: u64, timings: Timings) -> Self {
+        Provenance {
+            densepack_version: env!("CARGO_PKG_VERSION").into(),
+            // Set by build.rs when built in a git checkout.
+            git_commit: option_env!("DENSEPACK_GIT_COMMIT").map(Into::into),
+            seed,
+            scene,
+            timings,
+            finished_unix_seconds: std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_secs()),
+            imported_from: None,
+        }
+    }
+}
+
+/// Wall-clock seconds of the phases of a run (all 0 for an import).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Timings {
     /// Seeding (random sequential addition).
     pub seeding_seconds: f64,
@@ -354,12 +392,29 @@ impl Packing {
         Ok(packing)
     }
 
-    /// Writes the packing atomically: streamed to a temporary file beside `path`, then
-    /// renamed, so an existing file is never left half-written and no copy of the whole text
-    /// is held in memory.
+    /// Writes the packing pretty-printed (one field per line, indented; measured 181 bytes per
+    /// sphere (10 000 jammed spheres), 408 per ellipsoid (3000)), atomically: streamed to a temporary file beside `path`,
+    /// then renamed, so an existing file is never left half-written and no copy of the whole
+    /// text is held in memory.
     pub fn write(&self, path: &Path) -> Result<(), PackingError> {
+        self.write_json(path, true)
+    }
+
+    /// Writes the packing like [`Packing::write`] but compact: one line, no indentation
+    /// (113 bytes per sphere, 255 per ellipsoid, for the packings above; the same JSON
+    /// value).
+    pub fn write_compact(&self, path: &Path) -> Result<(), PackingError> {
+        self.write_json(path, false)
+    }
+
+    fn write_json(&self, path: &Path, pretty: bool) -> Result<(), PackingError> {
         write_atomically(path, |w| {
-            serde_json::to_writer_pretty(&mut *w, self).map_err(std::io::Error::other)
+            if pretty {
+                serde_json::to_writer_pretty(&mut *w, self)
+            } else {
+                serde_json::to_writer(&mut *w, self)
+            }
+            .map_err(std::io::Error::other)
         })
         .map_err(|source| PackingError::Io {
             path: path.display().to_string(),

@@ -332,17 +332,11 @@ where
 
 /// Where a packing came from: this program, the resolved scene, the seed, the timings.
 pub(super) fn provenance(scene: &impl serde::Serialize, seed: u64, timings: Timings) -> Provenance {
-    Provenance {
-        densepack_version: env!("CARGO_PKG_VERSION").into(),
-        // Set by build.rs when built in a git checkout.
-        git_commit: option_env!("DENSEPACK_GIT_COMMIT").map(Into::into),
+    Provenance::new(
+        serde_json::to_value(scene).expect("a scene serialises"),
         seed,
-        scene: serde_json::to_value(scene).expect("a scene serialises"),
         timings,
-        finished_unix_seconds: std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(0, |d| d.as_secs()),
-    }
+    )
 }
 
 /// The particles of a finished run (seeding order) and the gaps they guarantee.

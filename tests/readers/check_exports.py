@@ -10,6 +10,17 @@ Usage: check_exports.py KIND PACKING.json FILE [options]
                    shape tensors equal the packing's (ellipsoid and cylinder values recomputed
                    here from the quaternions and half axes).
   csv   FILE.csv   numpy reads it; rows equal the packing's particles (spheres).
+  xyzd  FILE.xyzd  numpy reads the little-endian doubles; rows (x, y, z, d) equal the
+                   packing's centres and diameters bit for bit.
+  lammps FILE.data numpy reads the Atoms section; rows (id, type, d, density, x, y, z) equal
+                   the packing's, the header counts and box bounds the container's.
+  vti   FILE.vti FILE.npy   the VTK Python package reads the image data; its origin, spacing
+                   and extent equal the .npy sidecar's and its cell array, reordered from
+                   x fastest, equals the .npy image.
+  abaqus FILE.inp FILE.npy  meshio reads the Abaqus file; one C3D8R (hexahedron) of positive
+                   volume per voxel inside the container, element set sizes equal the label
+                   counts of the .npy image of the same grid, face node sets lie on their
+                   faces and XMIN/XMAX (…) list partner nodes in the same order.
   npy   FILE.npy   numpy loads it; the labels equal a brute-force numpy voxelisation of the
   raw   FILE.raw   packing (shape/dtype from the FILE.json sidecar for raw), and the voxel
                    packing fraction equals the sidecar's and the exact one within the
@@ -255,6 +266,114 @@ def check_csv(packing_path, path):
     print(f"csv: ok ({len(radii)} rows)")
 
 
+def check_xyzd(packing_path, path):
+    _, centres, radii = load_packing(packing_path)
+    table = np.fromfile(path, dtype="<f8").reshape(-1, 4)
+    assert np.array_equal(table[:, :3], centres) and np.array_equal(table[:, 3], 2 * radii)
+    print(f"xyzd: ok ({len(radii)} spheres)")
+
+
+def check_lammps(packing_path, path):
+    p, centres, radii = load_packing(packing_path)
+    with open(path) as f:
+        lines = f.read().split("\n")
+    assert lines[0].startswith("LAMMPS data file"), lines[0]
+    header = {}
+    start = None
+    for n, line in enumerate(lines[1:], 1):
+        words = line.split("#")[0].split()
+        if line.startswith("Atoms"):
+            assert line.split("#")[1].strip() == "sphere", line
+            start = n + 2
+            break
+        if words[-2:] in (["xlo", "xhi"], ["ylo", "yhi"], ["zlo", "zhi"]):
+            header[words[-2]] = (float(words[0]), float(words[1]))
+        elif words:
+            header[" ".join(words[1:])] = int(words[0])
+    assert header["atoms"] == len(radii) and header["atom types"] == 1, header
+    c = p["container"]
+    if c["type"] == "box":
+        lo, hi = c["min"], c["max"]
+    else:  # the cylinder's bounding box
+        b, r = c["base_center"], c["radius"]
+        lo, hi = [b[0] - r, b[1] - r, b[2]], [b[0] + r, b[1] + r, b[2] + c["height"]]
+    for k, axis in enumerate("xyz"):
+        assert header[axis + "lo"] == (lo[k], hi[k]), (axis, header[axis + "lo"])
+    atoms = np.loadtxt(lines[start:start + len(radii)], ndmin=2)
+    assert np.array_equal(atoms[:, 0], np.arange(1, len(radii) + 1))
+    assert np.all(atoms[:, 1] == 1) and np.all(atoms[:, 3] == 1)
+    assert np.array_equal(atoms[:, 2], 2 * radii) and np.array_equal(atoms[:, 4:7], centres)
+    print(f"lammps: ok ({len(radii)} atoms, box {lo} .. {hi})")
+
+
+def load_npy(path):
+    with open(path + ".json") as f:
+        return np.load(path), json.load(f)
+
+
+def check_vti(path, npy_path):
+    import vtk
+    from vtk.util.numpy_support import vtk_to_numpy
+    image, meta = load_npy(npy_path)
+    reader = vtk.vtkXMLImageDataReader()
+    reader.SetFileName(path)
+    reader.Update()
+    data = reader.GetOutput()
+    nx, ny, nz = meta["shape"]
+    assert data.GetDimensions() == (nx + 1, ny + 1, nz + 1), data.GetDimensions()
+    assert np.allclose(data.GetOrigin(), meta["origin"], rtol=1e-15, atol=0)
+    assert np.allclose(data.GetSpacing(), meta["spacing"], rtol=1e-15, atol=0)
+    cells = data.GetCellData()
+    assert cells.GetNumberOfArrays() == 1
+    array = vtk_to_numpy(cells.GetArray(0))
+    assert array.dtype == image.dtype, (array.dtype, image.dtype)
+    assert np.array_equal(array.reshape(nz, ny, nx).transpose(2, 1, 0), image)
+    print(f"vti: ok ({cells.GetArrayName(0)}, {image.dtype}, shape {image.shape}, equals the .npy)")
+
+
+def check_abaqus(packing_path, path, npy_path):
+    import meshio
+    p, _, _ = load_packing(packing_path, spheres_only=False)
+    image, meta = load_npy(npy_path)
+    mesh = meshio.read(path, file_format="abaqus")
+    particle_labels = meta["dtype"] == "uint32"
+    outside = 2 ** 32 - 1 if particle_labels else 255
+    inside = image != outside
+    hexes = np.concatenate([b.data for b in mesh.cells if b.type == "hexahedron"])
+    assert sum(len(b.data) for b in mesh.cells) == len(hexes) == np.count_nonzero(inside)
+    # Positive volume in Abaqus node order: (n1 - n0) x (n3 - n0) . (n4 - n0) > 0.
+    pts = mesh.points
+    e = [pts[hexes[:, m]] - pts[hexes[:, 0]] for m in (1, 3, 4)]
+    volume = np.einsum("ij,ij->i", np.cross(e[0], e[1]), e[2])
+    assert np.allclose(volume, np.prod(meta["spacing"]), rtol=1e-9), (volume.min(), volume.max())
+    sets = {name.upper(): sum(len(a) for a in arrays) for name, arrays in mesh.cell_sets.items()}
+    if particle_labels:
+        phase = np.zeros(image.shape, dtype=np.int64)
+        for i, q in enumerate(p["particles"]):
+            phase[image == i + 1] = PHASES[q["type"]]
+            assert sets.get(f"PARTICLE_{i + 1}", 0) == np.count_nonzero(image == i + 1), i
+    else:
+        phase = image.astype(np.int64)
+    for name, label in [("MATRIX", 0)] + list(PHASES.items()):
+        expected = np.count_nonzero((phase == label) & inside)
+        assert sets.get(name.upper(), 0) == expected, (name, sets.get(name.upper()), expected)
+    nsets = {name.upper(): idx for name, idx in mesh.point_sets.items()}
+    lo = np.array(meta["origin"])
+    length = np.array(meta["shape"]) * np.array(meta["spacing"])
+    axes = range(3) if p["container"]["type"] == "box" else [2]
+    for k in axes:
+        low, high = pts[nsets["XYZ"[k] + "MIN"]], pts[nsets["XYZ"[k] + "MAX"]]
+        assert len(low) == len(high) > 0
+        assert np.allclose(low[:, k], lo[k], rtol=0, atol=1e-12 * length[k])
+        shifted = low.copy()
+        shifted[:, k] += length[k]
+        assert np.allclose(shifted, high, rtol=0, atol=1e-9 * length[k]), "XYZ"[k]
+    print(f"abaqus: ok ({len(pts)} nodes, {len(hexes)} C3D8R, element sets "
+          f"{sorted(n for n in sets if not n.startswith('PARTICLE_'))} + "
+          f"{sum(n.startswith('PARTICLE_') for n in sets)} particle sets, face node sets "
+          f"{sorted(nsets)})")
+
+
 # Phase labels of the shapes (`--labels phase`); partial volumes count every solid voxel.
 PHASES = {"sphere": 1, "ellipsoid": 2, "cylinder": 3}
 
@@ -354,6 +473,14 @@ def main():
         check_vtk(packing_path, path)
     elif kind == "csv":
         check_csv(packing_path, path)
+    elif kind == "xyzd":
+        check_xyzd(packing_path, path)
+    elif kind == "lammps":
+        check_lammps(packing_path, path)
+    elif kind == "vti":
+        check_vti(path, rest[0])
+    elif kind == "abaqus":
+        check_abaqus(packing_path, path, rest[0])
     elif kind in ("npy", "raw"):
         check_voxels(packing_path, path, kind == "raw")
     else:

@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # Exports small packings in every format and reads them back with real readers: Gmsh meshes
-# the .geo in 3D (second order), meshio reads meshes and .vtu files, numpy reads .npy, raw
-# and .csv. Checks are in check_exports.py. Called by .ci/run after the Rust tests.
+# the .geo in 3D (second order), meshio reads meshes, .vtu and Abaqus .inp files, the VTK
+# Python package reads .vti, numpy reads .npy, raw, .csv, .xyzd and LAMMPS data files. Checks are in check_exports.py. Called by .ci/run after the Rust tests.
 #
-# Readers: Debian's gmsh (installed with apt-get when missing and running as root), numpy
-# and meshio from PyPI, installed into a virtual environment of the project
+# Readers: Debian's gmsh (installed with apt-get when missing and running as root), numpy,
+# meshio and vtk from PyPI, installed into a virtual environment of the project
 # (target/ci-venv, kept between runs), never into the system Python: a fresh Debian's Python
 # is "externally managed" and refuses pip there. Debian's python3 needs the python3-venv
 # package for `python3 -m venv` (installed with apt-get when missing and running as root).
@@ -28,15 +28,15 @@ command -v python3 >/dev/null 2>&1 || apt_install python3 python3-venv
 
 venv=target/ci-venv
 python=$venv/bin/python
-if ! "$python" -c "import numpy, meshio" >/dev/null 2>&1; then
+if ! "$python" -c "import numpy, meshio, vtk" >/dev/null 2>&1; then
   rm -rf "$venv"
   if ! python3 -m venv "$venv" >/dev/null 2>&1; then
     rm -rf "$venv"
     apt_install python3-venv
     python3 -m venv "$venv"
   fi
-  echo "installing numpy and meshio (PyPI) into $venv"
-  "$python" -m pip install --quiet numpy meshio
+  echo "installing numpy, meshio and vtk (PyPI) into $venv"
+  "$python" -m pip install --quiet numpy meshio vtk
 fi
 
 bin=target/release/densepack
@@ -91,6 +91,10 @@ for packing in periodic cylinder ellipsoids ellipsoids_walls mixture; do
   if [ "$packing" = periodic ] || [ "$packing" = cylinder ]; then # x,y,z,r: spheres only
     "$bin" export "$work/$packing.json" --format csv --out "$work/$packing.csv" >/dev/null
     run_check "csv $packing" "$python" "$check" csv "$work/$packing.json" "$work/$packing.csv"
+    "$bin" export "$work/$packing.json" --format xyzd --out "$work/$packing.xyzd" >/dev/null
+    run_check "xyzd $packing" "$python" "$check" xyzd "$work/$packing.json" "$work/$packing.xyzd"
+    "$bin" export "$work/$packing.json" --format lammps --out "$work/$packing.data" >/dev/null
+    run_check "lammps $packing" "$python" "$check" lammps "$work/$packing.json" "$work/$packing.data"
   fi
   "$bin" export "$work/$packing.json" --format npy --voxels 48 --out "$work/$packing.npy" >/dev/null
   run_check "npy $packing" "$python" "$check" npy "$work/$packing.json" "$work/$packing.npy"
@@ -98,6 +102,16 @@ for packing in periodic cylinder ellipsoids ellipsoids_walls mixture; do
   run_check "raw $packing" "$python" "$check" raw "$work/$packing.json" "$work/$packing.raw"
   "$bin" export "$work/$packing.json" --format npy --partial-volume 3 --voxels 24 --out "$work/$packing.pv.npy" >/dev/null
   run_check "partial volume $packing" "$python" "$check" npy "$work/$packing.json" "$work/$packing.pv.npy"
+  # vti and abaqus on the grids of the .npy exports above: the same labels.
+  "$bin" export "$work/$packing.json" --format vti --voxels 48 --out "$work/$packing.vti" >/dev/null
+  run_check "vti $packing" "$python" "$check" vti "$work/$packing.json" "$work/$packing.vti" "$work/$packing.npy"
+  "$bin" export "$work/$packing.json" --format vti --partial-volume 3 --voxels 24 --out "$work/$packing.pv.vti" >/dev/null
+  run_check "vti partial volume $packing" "$python" "$check" vti "$work/$packing.json" "$work/$packing.pv.vti" "$work/$packing.pv.npy"
+  "$bin" export "$work/$packing.json" --format abaqus --voxels 48 --out "$work/$packing.inp" >/dev/null
+  run_check "abaqus $packing" "$python" "$check" abaqus "$work/$packing.json" "$work/$packing.inp" "$work/$packing.npy"
+  "$bin" export "$work/$packing.json" --format npy --labels particle --voxels 24 --out "$work/$packing.p.npy" >/dev/null
+  "$bin" export "$work/$packing.json" --format abaqus --labels particle --voxels 24 --out "$work/$packing.p.inp" >/dev/null
+  run_check "abaqus per particle $packing" "$python" "$check" abaqus "$work/$packing.json" "$work/$packing.p.inp" "$work/$packing.p.npy"
 done
 
 echo "exports: $passed passed, 0 failed"

@@ -4,19 +4,27 @@
 //! |---|---|---|
 //! | `gmsh` | `.geo` script, OpenCASCADE kernel ([`gmsh`]) | Gmsh meshes it in 3D |
 //! | `vtk` | `.vtu` XML unstructured grid of points with per-particle attributes ([`vtk`]) | meshio |
+//! | `vti` | `.vti` VTK XML image data of the voxel image, binary, zlib-compressed ([`vti`]) | the VTK Python package |
+//! | `abaqus` | `.inp` Abaqus voxel model: C3D8R elements, element sets per phase (and particle), face node sets ([`abaqus`]) | meshio |
 //! | `npy` | `.npy` voxel label image + `FILE.json` sidecar ([`voxel`]) | numpy |
 //! | `raw` | raw voxel label image + `FILE.json` sidecar ([`voxel`]) | numpy |
 //! | `csv` | `.csv`, one row per particle ([`csv`]) | numpy |
+//! | `xyzd` | PackingGeneration's binary `x y z d` doubles, spheres ([`xyzd`]) | numpy |
+//! | `lammps` | LAMMPS data file, atom style sphere ([`lammps`]) | numpy |
 //!
 //! Every exporter is a dispatch over [`ParticleRecord`]: a new particle shape is one match
 //! arm in [`bounding_sphere`], [`contains`], and in each writer's per-particle function.
 //! All files are written through [`write_atomically`]: an existing file is never left
 //! half-written. Lengths keep the packing's unit.
 
+pub mod abaqus;
 pub mod csv;
 pub mod gmsh;
+pub mod lammps;
 pub mod voxel;
+pub mod vti;
 pub mod vtk;
+pub mod xyzd;
 
 use crate::io::packing::{write_atomically, ContainerRecord, Packing, ParticleRecord};
 use std::path::Path;
@@ -50,22 +58,34 @@ pub enum Format {
     Gmsh,
     /// VTK `.vtu` points with per-particle attributes ([`vtk`]).
     Vtk,
+    /// VTK `.vti` image data of the voxel image ([`vti`]).
+    Vti,
+    /// Abaqus `.inp` voxel model ([`abaqus`]).
+    Abaqus,
     /// Voxel image `.npy` with a `FILE.json` sidecar ([`voxel`]).
     Npy,
     /// Voxel image as raw bytes with a `FILE.json` sidecar ([`voxel`]).
     Raw,
     /// CSV table, one row per particle ([`csv`]).
     Csv,
+    /// PackingGeneration's binary `.xyzd`, spheres ([`xyzd`]).
+    Xyzd,
+    /// LAMMPS data file, atom style sphere ([`lammps`]).
+    Lammps,
 }
 
 impl Format {
     /// Every format, in the order the help lists them.
-    pub const ALL: [Format; 5] = [
+    pub const ALL: [Format; 9] = [
         Format::Gmsh,
         Format::Vtk,
+        Format::Vti,
+        Format::Abaqus,
         Format::Npy,
         Format::Raw,
         Format::Csv,
+        Format::Xyzd,
+        Format::Lammps,
     ];
 
     /// The format's name (lower case, as on the command line).
@@ -73,9 +93,13 @@ impl Format {
         match self {
             Format::Gmsh => "gmsh",
             Format::Vtk => "vtk",
+            Format::Vti => "vti",
+            Format::Abaqus => "abaqus",
             Format::Npy => "npy",
             Format::Raw => "raw",
             Format::Csv => "csv",
+            Format::Xyzd => "xyzd",
+            Format::Lammps => "lammps",
         }
     }
 
@@ -93,9 +117,27 @@ impl Format {
             })
     }
 
-    /// Whether the format is a voxel image (with a sidecar).
-    pub fn is_voxel(self) -> bool {
+    /// Whether the format writes the voxel image (and takes the voxel options).
+    pub fn uses_voxels(self) -> bool {
+        matches!(
+            self,
+            Format::Npy | Format::Raw | Format::Vti | Format::Abaqus
+        )
+    }
+
+    /// Whether the format writes a `FILE.json` sidecar beside the file.
+    pub fn has_sidecar(self) -> bool {
         matches!(self, Format::Npy | Format::Raw)
+    }
+
+    /// The extension the file must have, for formats whose readers go by it.
+    fn required_extension(self) -> Option<&'static str> {
+        match self {
+            Format::Vtk => Some("vtu"),
+            Format::Vti => Some("vti"),
+            Format::Abaqus => Some("inp"),
+            _ => None,
+        }
     }
 }
 
@@ -103,7 +145,8 @@ impl Format {
 /// not given, and a given option the format does not use is an error naming it.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ExportOptions {
-    /// Voxel formats: voxels along the longest container edge (default 128).
+    /// Voxel formats (`npy`, `raw`, `vti`, `abaqus`): voxels along the longest container
+    /// edge (default 128).
     pub voxels: Option<usize>,
     /// Voxel formats: what a voxel holds (default [`voxel::Labels::Phase`]).
     pub labels: Option<voxel::Labels>,
@@ -123,9 +166,9 @@ pub const DEFAULT_VOXELS: usize = 128;
 pub enum Exported {
     /// A Gmsh script.
     Gmsh(gmsh::GmshReport),
-    /// A voxel image and its sidecar.
+    /// A voxel image (`npy` and `raw` with a sidecar, `vti`, `abaqus`).
     Voxels(voxel::VoxelSummary),
-    /// A file with nothing further to report (VTK, CSV).
+    /// A file with nothing further to report (VTK, CSV, xyzd, LAMMPS).
     File,
 }
 
@@ -154,16 +197,29 @@ pub fn export(
             }
         }
     }
-    if !format.is_voxel() {
+    if !format.uses_voxels() {
         for (given, option) in [
             (options.voxels.is_some(), "--voxels"),
             (options.labels.is_some(), "--labels/--partial-volume"),
         ] {
             if given {
-                return Err(only(option, "npy or raw"));
+                return Err(only(option, "npy, raw, vti or abaqus"));
             }
         }
     }
+    if let Some(extension) = format.required_extension() {
+        if path.extension().and_then(|e| e.to_str()) != Some(extension) {
+            return Err(ExportError::Invalid {
+                option: "--out",
+                message: format!(
+                    "--format {} needs the extension .{extension} (readers go by it)",
+                    format.name()
+                ),
+            });
+        }
+    }
+    let voxels = options.voxels.unwrap_or(DEFAULT_VOXELS);
+    let labels = options.labels.unwrap_or(voxel::Labels::Phase);
     match format {
         Format::Gmsh => gmsh::write_geo(
             packing,
@@ -176,29 +232,48 @@ pub fn export(
             path,
         )
         .map(Exported::Gmsh),
-        Format::Vtk => {
-            if path.extension().and_then(|e| e.to_str()) != Some("vtu") {
-                return Err(ExportError::Invalid {
-                    option: "--out",
-                    message: "a VTK XML unstructured grid needs the extension .vtu (readers go \
-                              by it)"
-                        .into(),
-                });
-            }
-            vtk::write_vtu(packing, path).map(|()| Exported::File)
-        }
+        Format::Vtk => vtk::write_vtu(packing, path).map(|()| Exported::File),
         Format::Csv => csv::write_csv(packing, path).map(|()| Exported::File),
+        Format::Xyzd => xyzd::write_xyzd(packing, path).map(|()| Exported::File),
+        Format::Lammps => lammps::write_data(packing, path).map(|()| Exported::File),
+        Format::Vti => vti::write_vti(packing, voxels, labels, path).map(Exported::Voxels),
+        Format::Abaqus => abaqus::write_inp(packing, voxels, labels, path).map(Exported::Voxels),
         Format::Npy | Format::Raw => voxel::write_voxels(
             packing,
             &voxel::VoxelOptions {
-                voxels: options.voxels.unwrap_or(DEFAULT_VOXELS),
-                labels: options.labels.unwrap_or(voxel::Labels::Phase),
+                voxels,
+                labels,
                 npy: format == Format::Npy,
             },
             path,
         )
         .map(Exported::Voxels),
     }
+}
+
+/// The centres and radii of a packing of spheres; any other particle is an error naming
+/// the first one and the format (`name`) that takes spheres only.
+pub(crate) fn spheres(packing: &Packing, name: &str) -> Result<Vec<([f64; 3], f64)>, ExportError> {
+    packing
+        .particles
+        .iter()
+        .enumerate()
+        .map(|(i, p)| match p {
+            ParticleRecord::Sphere { center, radius } => Ok((*center, *radius)),
+            ParticleRecord::Cylinder { .. } | ParticleRecord::Ellipsoid { .. } => {
+                Err(ExportError::Invalid {
+                    option: "--format",
+                    message: format!(
+                        "{name} takes spheres only, and particle {i} is {}",
+                        match p {
+                            ParticleRecord::Cylinder { .. } => "a cylinder",
+                            _ => "an ellipsoid",
+                        }
+                    ),
+                })
+            }
+        })
+        .collect()
 }
 
 /// Writes `path` atomically with `fill`, mapping I/O errors to [`ExportError::Io`].

@@ -47,7 +47,7 @@ pub const OUTSIDE_PHASE: u8 = u8::MAX;
 pub const OUTSIDE_PARTICLE: u32 = u32::MAX;
 
 /// Phase id of a particle's shape (0 is the matrix).
-fn phase_id(p: &ParticleRecord) -> u8 {
+pub(super) fn phase_id(p: &ParticleRecord) -> u8 {
     match p {
         ParticleRecord::Sphere { .. } => 1,
         ParticleRecord::Ellipsoid { .. } => 2,
@@ -56,7 +56,7 @@ fn phase_id(p: &ParticleRecord) -> u8 {
 }
 
 /// Name of each phase id, for the sidecar.
-const PHASE_NAMES: [(u8, &str); 4] = [
+pub(super) const PHASE_NAMES: [(u8, &str); 4] = [
     (0, "matrix"),
     (1, "sphere"),
     (2, "ellipsoid"),
@@ -265,8 +265,8 @@ pub struct VoxelSummary {
     pub packing_fraction_voxels: f64,
     /// First-order bound on their difference ([`resolution_bound`]).
     pub resolution_bound: f64,
-    /// The sidecar file.
-    pub sidecar: PathBuf,
+    /// The sidecar file (`.npy` and raw only).
+    pub sidecar: Option<PathBuf>,
 }
 
 /// The sidecar path of a voxel file: `FILE.json`.
@@ -356,7 +356,7 @@ impl VoxelImage {
     }
 
     /// The element type: its name and its NumPy `descr`.
-    fn dtype(&self) -> (&'static str, &'static str) {
+    pub(super) fn dtype(&self) -> (&'static str, &'static str) {
         match self {
             Self::Phase(_) => ("uint8", "|u1"),
             Self::Particle(_) => ("uint32", "<u4"),
@@ -365,7 +365,7 @@ impl VoxelImage {
     }
 
     /// The voxels as little-endian bytes.
-    fn write_le(&self, w: &mut impl Write) -> std::io::Result<()> {
+    pub(super) fn write_le(&self, w: &mut impl Write) -> std::io::Result<()> {
         match self {
             Self::Phase(v) => w.write_all(v),
             Self::Particle(v) => v.iter().try_for_each(|x| w.write_all(&x.to_le_bytes())),
@@ -405,15 +405,41 @@ impl VoxelImage {
     }
 }
 
+/// Voxelises `packing` with `voxels` along the longest edge and `labels`: the image and its
+/// summary (packing fractions exact and in voxels, resolution bound; no sidecar yet). Every
+/// voxel format ([`write_voxels`], [`super::vti`], [`super::abaqus`]) starts here.
+pub fn image_and_summary(
+    packing: &Packing,
+    voxels: usize,
+    labels: Labels,
+) -> Result<(VoxelImage, VoxelSummary), ExportError> {
+    let grid = Grid::new(&packing.container, voxels)?;
+    let voxel_volume: f64 = grid.spacing.iter().product();
+    let image = VoxelImage::of(packing, &grid, labels)?;
+    let summary = VoxelSummary {
+        grid,
+        packing_fraction_exact: packing_fraction(packing),
+        packing_fraction_voxels: image.solid_voxels() * voxel_volume
+            / container_volume(&packing.container),
+        // Sample points `s` times denser than the voxels: the bound of that finer grid.
+        resolution_bound: resolution_bound(packing, &grid)
+            / match labels {
+                Labels::PartialVolume(samples) => samples as f64,
+                Labels::Phase | Labels::Particle => 1.0,
+            },
+        sidecar: None,
+    };
+    Ok((image, summary))
+}
+
 /// Voxelises `packing` and writes the image and its sidecar.
 pub fn write_voxels(
     packing: &Packing,
     opts: &VoxelOptions,
     path: &Path,
 ) -> Result<VoxelSummary, ExportError> {
-    let grid = Grid::new(&packing.container, opts.voxels)?;
-    let voxel_volume: f64 = grid.spacing.iter().product();
-    let image = VoxelImage::of(packing, &grid, opts.labels)?;
+    let (image, mut summary) = image_and_summary(packing, opts.voxels, opts.labels)?;
+    let grid = summary.grid;
     let (dtype, descr) = image.dtype();
     super::write_file(path, |w| {
         if opts.npy {
@@ -421,21 +447,8 @@ pub fn write_voxels(
         }
         image.write_le(w)
     })?;
-    let particle_voxels = image.solid_voxels();
     let labels_json = image.meaning();
-    let summary = VoxelSummary {
-        grid,
-        packing_fraction_exact: packing_fraction(packing),
-        packing_fraction_voxels: particle_voxels * voxel_volume
-            / container_volume(&packing.container),
-        // Sample points `s` times denser than the voxels: the bound of that finer grid.
-        resolution_bound: resolution_bound(packing, &grid)
-            / match opts.labels {
-                Labels::PartialVolume(samples) => samples as f64,
-                Labels::Phase | Labels::Particle => 1.0,
-            },
-        sidecar: sidecar_path(path),
-    };
+    let sidecar_path = sidecar_path(path);
     let sidecar = serde_json::json!({
         "format": "densepack-voxels",
         "version": 1,
@@ -457,10 +470,11 @@ pub fn write_voxels(
         "seed": packing.seed,
         "provenance": provenance_line(packing),
     });
-    super::write_file(&summary.sidecar, |w| {
+    super::write_file(&sidecar_path, |w| {
         serde_json::to_writer_pretty(&mut *w, &sidecar).map_err(std::io::Error::other)?;
         writeln!(w)
     })?;
+    summary.sidecar = Some(sidecar_path);
     Ok(summary)
 }
 
