@@ -10,28 +10,12 @@ use densepack::io::packing::Packing;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-/// File formats on the command line.
-#[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum FormatArg {
-    /// Gmsh `.geo` script (OpenCASCADE): physical volumes matrix, aggregates[, interface].
-    Gmsh,
-    /// VTK `.vtu` points with radius, semi_axes, orientation (ParaView glyphs).
-    Vtk,
-    /// VTK `.vti` image data of the voxel image (binary, zlib), for FFT solvers and ParaView.
-    Vti,
-    /// Abaqus `.inp` voxel model: C3D8R elements, an element set per phase (per particle
-    /// with --labels particle), node sets XMIN … ZMAX.
-    Abaqus,
-    /// Voxel label image as `.npy`, with a `FILE.json` sidecar.
-    Npy,
-    /// Voxel label image as raw bytes, with a `FILE.json` sidecar.
-    Raw,
-    /// CSV table: `x,y,z,r` for spheres, 15 columns with other shapes.
-    Csv,
-    /// PackingGeneration's binary `.xyzd` (little-endian doubles x y z d), spheres.
-    Xyzd,
-    /// LAMMPS data file, atom style sphere (id type diameter density x y z), spheres.
-    Lammps,
+/// `--format`: the library's formats ([`Format::ALL`]), each listed in `--help` with its
+/// description.
+fn format_parser() -> clap::builder::PossibleValuesParser {
+    clap::builder::PossibleValuesParser::new(
+        Format::ALL.map(|f| clap::builder::PossibleValue::new(f.name()).help(f.describe())),
+    )
 }
 
 /// Voxel label kinds on the command line.
@@ -49,8 +33,8 @@ pub struct ExportArgs {
     /// Packing file (JSON).
     packing: PathBuf,
     /// Output format.
-    #[arg(long, value_enum)]
-    format: FormatArg,
+    #[arg(long, value_parser = format_parser())]
+    format: String,
     /// Output file (written atomically).
     #[arg(long)]
     out: PathBuf,
@@ -76,22 +60,6 @@ pub struct ExportArgs {
     shrink: Option<f64>,
 }
 
-impl FormatArg {
-    fn format(self) -> Format {
-        match self {
-            FormatArg::Gmsh => Format::Gmsh,
-            FormatArg::Vtk => Format::Vtk,
-            FormatArg::Vti => Format::Vti,
-            FormatArg::Abaqus => Format::Abaqus,
-            FormatArg::Npy => Format::Npy,
-            FormatArg::Raw => Format::Raw,
-            FormatArg::Csv => Format::Csv,
-            FormatArg::Xyzd => Format::Xyzd,
-            FormatArg::Lammps => Format::Lammps,
-        }
-    }
-}
-
 /// Runs `export`.
 pub fn run(args: &ExportArgs) -> ExitCode {
     let packing = match Packing::read(&args.packing) {
@@ -101,7 +69,7 @@ pub fn run(args: &ExportArgs) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let format = args.format.format();
+    let format = Format::parse(&args.format).expect("clap accepts the formats' names only");
     let options = ExportOptions {
         voxels: args.voxels,
         labels: match (args.partial_volume, args.labels) {

@@ -103,6 +103,32 @@ impl Format {
         }
     }
 
+    /// One line for people: what the format writes (the CLI's `--help` lists it).
+    pub fn describe(self) -> &'static str {
+        match self {
+            Format::Gmsh => {
+                "Gmsh `.geo` script (OpenCASCADE): physical volumes matrix, aggregates[, interface]"
+            }
+            Format::Vtk => "VTK `.vtu` points with radius, semi_axes, orientation (ParaView glyphs)",
+            Format::Vti => {
+                "VTK `.vti` image data of the voxel image (binary, zlib), for FFT solvers and ParaView"
+            }
+            Format::Abaqus => {
+                "Abaqus `.inp` voxel model: C3D8R elements, an element set per phase (per particle \
+                 with --labels particle), node sets XMIN … ZMAX"
+            }
+            Format::Npy => "Voxel label image as `.npy`, with a `FILE.json` sidecar",
+            Format::Raw => "Voxel label image as raw bytes, with a `FILE.json` sidecar",
+            Format::Csv => "CSV table: `x,y,z,r` for spheres, 15 columns with other shapes",
+            Format::Xyzd => {
+                "PackingGeneration's binary `.xyzd` (little-endian doubles x y z d), spheres"
+            }
+            Format::Lammps => {
+                "LAMMPS data file, atom style sphere (id type diameter density x y z), spheres"
+            }
+        }
+    }
+
     /// The format called `name`; the error lists the formats.
     pub fn parse(name: &str) -> Result<Self, ExportError> {
         Self::ALL
