@@ -49,6 +49,43 @@ impl Packing {
         Self::from_json(&text, &path.display().to_string())
     }
 
+    /// A packing read from another tool's file: `source` is `"csv"`, `"xyzd"`,
+    /// `"lammps-data"`, `"lammps-dump"` or `"json"` (as `densepack import --from`). Give the
+    /// container where the file has none: `box=(x, y, z)` (lower corner at the origin,
+    /// `periodic=(bool, bool, bool)`) or `cylinder=(radius, height)`. The packing promises no
+    /// gap (`min_gap` 0): `verify()` checks overlaps and containment. `ValueError` names the
+    /// line and field of a malformed file, `OSError` when it cannot be read.
+    #[staticmethod]
+    #[pyo3(signature = (path, source, *, r#box=None, cylinder=None, periodic=None))]
+    fn import_file(
+        py: Python<'_>,
+        path: PathBuf,
+        source: &str,
+        r#box: Option<Vec<f64>>,
+        cylinder: Option<Vec<f64>>,
+        periodic: Option<Vec<bool>>,
+    ) -> PyResult<Self> {
+        use densepack::io::import::{import, ImportError, ImportOptions, Source};
+        let python_names = |e: ImportError| match e {
+            ImportError::Io { .. } => os_error(e),
+            ImportError::Invalid { option, message } => value_error(format!(
+                "{}: {message}",
+                match option {
+                    "--from" => "source",
+                    other => other.trim_start_matches("--"),
+                }
+            )),
+            other => value_error(other),
+        };
+        let source = Source::parse(source).map_err(python_names)?;
+        let options =
+            ImportOptions::of_specimen(r#box.as_deref(), cylinder.as_deref(), periodic.as_deref())
+                .map_err(python_names)?;
+        py.detach(|| import(&path, source, &options))
+            .map(|packing| Self { packing })
+            .map_err(python_names)
+    }
+
     /// Writes the packing JSON atomically (the same bytes the CLI writes: floats round-trip
     /// exactly).
     fn save(&self, path: PathBuf) -> PyResult<()> {

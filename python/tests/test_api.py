@@ -159,3 +159,24 @@ def test_take_draws_the_clis_diameters(cli, tmp_path):
     assert diameters.min() >= 2.0 and diameters.max() <= 16.0
     with pytest.raises(ValueError, match="phi_m|mixture fraction"):
         densepack.take("B16", phi_m=1.5, d_min=2.0, box=(50, 50, 50))
+
+
+def test_foreign_files_import_and_round_trip(scenes, tmp_path):
+    packing = densepack.run(densepack.Scene.from_toml(scenes / "sample_spheres.toml"), progress=False)
+    edges = np.array(packing.container["max"]) - np.array(packing.container["min"])
+    packing.export(tmp_path / "p.xyzd", "xyzd")
+    back = densepack.Packing.import_file(
+        tmp_path / "p.xyzd", "xyzd", box=tuple(edges), periodic=(True, True, True)
+    )
+    # The exported centres are relative to the box's lower corner, as the import's box.
+    assert np.array_equal(back.centers, packing.centers - np.array(packing.container["min"]))
+    assert np.array_equal(back.radii, packing.radii)
+    assert back.verify()["ok"] and back.min_gap == 0.0
+    assert back.provenance["imported_from"]["format"] == "xyzd"
+    (tmp_path / "bad.csv").write_text("x,y,z,r\n1,2,3,0.5\n1,2,oops,0.5\n")
+    with pytest.raises(ValueError, match="line 3"):
+        densepack.Packing.import_file(tmp_path / "bad.csv", "csv", box=(10, 10, 10))
+    with pytest.raises(ValueError, match="source"):
+        densepack.Packing.import_file(tmp_path / "bad.csv", "pdb", box=(10, 10, 10))
+    with pytest.raises(ValueError, match="box"):
+        densepack.Packing.import_file(tmp_path / "bad.csv", "csv", box=(10, 10))

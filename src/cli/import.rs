@@ -1,36 +1,16 @@
 //! `densepack import FILE --from F --out PACKING.json`.
 
-use clap::{Args, ValueEnum};
+use clap::Args;
 use densepack::io::import::{import, ImportError, ImportOptions, Source};
-use densepack::io::packing::ContainerRecord;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-/// Foreign formats on the command line.
-#[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum SourceArg {
-    /// Comma-separated table with a header naming x,y,z and r (radius) or d (diameter).
-    Csv,
-    /// PackingGeneration's binary .xyzd (little-endian doubles x y z d).
-    Xyzd,
-    /// LAMMPS data file, atom style sphere (id type diameter density x y z).
-    LammpsData,
-    /// LAMMPS text dump (last snapshot): x y z (or xu.., xs..) and radius or diameter.
-    LammpsDump,
-    /// A packing JSON (min_gap, seed and stats may be absent).
-    Json,
-}
-
-impl SourceArg {
-    fn source(self) -> Source {
-        match self {
-            SourceArg::Csv => Source::Csv,
-            SourceArg::Xyzd => Source::Xyzd,
-            SourceArg::LammpsData => Source::LammpsData,
-            SourceArg::LammpsDump => Source::LammpsDump,
-            SourceArg::Json => Source::Json,
-        }
-    }
+/// `--from`: the library's sources ([`Source::ALL`]), each listed in `--help` with its
+/// description.
+fn source_parser() -> clap::builder::PossibleValuesParser {
+    clap::builder::PossibleValuesParser::new(
+        Source::ALL.map(|s| clap::builder::PossibleValue::new(s.name()).help(s.describe())),
+    )
 }
 
 /// Arguments of `import`.
@@ -39,8 +19,8 @@ pub struct ImportArgs {
     /// The foreign file.
     file: PathBuf,
     /// Its format.
-    #[arg(long, value_enum)]
-    from: SourceArg,
+    #[arg(long, value_parser = source_parser())]
+    from: String,
     /// Output packing file (JSON, written atomically).
     #[arg(long)]
     out: PathBuf,
@@ -63,46 +43,12 @@ pub struct ImportArgs {
 
 /// The container and periodic axes of the options.
 fn options(args: &ImportArgs) -> Result<ImportOptions, String> {
-    let periodic = match args.periodic.as_deref() {
-        None => None,
-        Some(&[a, b, c]) => Some([a, b, c]),
-        Some(p) => return Err(format!("--periodic: {} values given, expected 3", p.len())),
-    };
-    let container = match (args.r#box.as_deref(), args.cylinder.as_deref()) {
-        (Some(&[x, y, z]), None) => Some(ContainerRecord::Box {
-            min: [0.0; 3],
-            max: [x, y, z],
-            periodic: periodic.unwrap_or([false; 3]),
-        }),
-        (Some(b), None) => return Err(format!("--box: {} values given, expected X,Y,Z", b.len())),
-        (None, Some(&[radius, height])) => Some(ContainerRecord::Cylinder {
-            base_center: [0.0; 3],
-            radius,
-            height,
-        }),
-        (None, Some(c)) => {
-            return Err(format!(
-                "--cylinder: {} values given, expected RADIUS,HEIGHT",
-                c.len()
-            ))
-        }
-        _ => None,
-    };
-    if let Some(c) = &container {
-        c.check().map_err(|e| {
-            let option = if args.r#box.is_some() {
-                "--box"
-            } else {
-                "--cylinder"
-            };
-            format!("{option}: {e}")
-        })?;
-    }
-    Ok(ImportOptions {
-        // --periodic alone applies to the file's box; with --box it is in the box.
-        periodic: periodic.filter(|_| container.is_none()),
-        container,
-    })
+    ImportOptions::of_specimen(
+        args.r#box.as_deref(),
+        args.cylinder.as_deref(),
+        args.periodic.as_deref(),
+    )
+    .map_err(|e| e.to_string())
 }
 
 /// Runs `import`.
@@ -116,7 +62,8 @@ pub fn run(args: &ImportArgs) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let packing = match import(&args.file, args.from.source(), &options) {
+    let source = Source::parse(&args.from).expect("clap accepts the sources' names only");
+    let packing = match import(&args.file, source, &options) {
         Ok(p) => p,
         Err(e @ ImportError::Io { .. }) => {
             errln!("error: {e}");
@@ -142,7 +89,7 @@ pub fn run(args: &ImportArgs) -> ExitCode {
         args.out.display(),
         packing.particles.len(),
         args.file.display(),
-        args.from.source().name(),
+        source.name(),
         serde_json::to_string(&packing.container).unwrap_or_default(),
         densepack::io::export::packing_fraction(&packing)
     );

@@ -54,6 +54,37 @@ impl Source {
             Source::Json => "json",
         }
     }
+
+    /// One line for people: what the reader expects (the CLI's `--help` lists it).
+    pub fn describe(self) -> &'static str {
+        match self {
+            Source::Csv => {
+                "Comma-separated table with a header naming x,y,z and r (radius) or d (diameter)"
+            }
+            Source::Xyzd => "PackingGeneration's binary .xyzd (little-endian doubles x y z d)",
+            Source::LammpsData => {
+                "LAMMPS data file, atom style sphere (id type diameter density x y z)"
+            }
+            Source::LammpsDump => {
+                "LAMMPS text dump (last snapshot): x y z (or xu.., xs..) and radius or diameter"
+            }
+            Source::Json => "A packing JSON (min_gap, seed and stats may be absent)",
+        }
+    }
+
+    /// The source called `name`; the error lists the sources.
+    pub fn parse(name: &str) -> Result<Self, ImportError> {
+        Self::ALL
+            .into_iter()
+            .find(|s| s.name() == name)
+            .ok_or_else(|| ImportError::Invalid {
+                option: "--from",
+                message: format!(
+                    "= {name:?} is not a format this reads; the formats are {}",
+                    Self::ALL.map(Source::name).join(", ")
+                ),
+            })
+    }
 }
 
 /// Why an import failed.
@@ -100,6 +131,77 @@ pub struct ImportOptions {
     /// Periodic axes of a box container from the file (`lammps-data`; for other box
     /// containers give them in [`ImportOptions::container`]).
     pub periodic: Option<[bool; 3]>,
+}
+
+impl ImportOptions {
+    /// The options of a specimen given as numbers, as on the command line and in Python:
+    /// `r#box` the edges `[x, y, z]` of a box at the origin, `cylinder` `[radius, height]`
+    /// (axis along z, base centre at the origin), `periodic` three flags — in the box when
+    /// one is given, else for the file's own box. Errors name the option and the count or
+    /// range that is wrong.
+    pub fn of_specimen(
+        r#box: Option<&[f64]>,
+        cylinder: Option<&[f64]>,
+        periodic: Option<&[bool]>,
+    ) -> Result<Self, ImportError> {
+        let invalid =
+            |option: &'static str, message: String| ImportError::Invalid { option, message };
+        let periodic = match periodic {
+            None => None,
+            Some(&[a, b, c]) => Some([a, b, c]),
+            Some(p) => {
+                return Err(invalid(
+                    "--periodic",
+                    format!("{} values given, expected 3", p.len()),
+                ))
+            }
+        };
+        let (container, option) = match (r#box, cylinder) {
+            (Some(_), Some(_)) => {
+                return Err(invalid(
+                    "--box",
+                    "give the specimen as a box or a cylinder, not both".into(),
+                ))
+            }
+            (Some(&[x, y, z]), None) => (
+                Some(ContainerRecord::Box {
+                    min: [0.0; 3],
+                    max: [x, y, z],
+                    periodic: periodic.unwrap_or([false; 3]),
+                }),
+                "--box",
+            ),
+            (Some(b), None) => {
+                return Err(invalid(
+                    "--box",
+                    format!("{} values given, expected X,Y,Z", b.len()),
+                ))
+            }
+            (None, Some(&[radius, height])) => (
+                Some(ContainerRecord::Cylinder {
+                    base_center: [0.0; 3],
+                    radius,
+                    height,
+                }),
+                "--cylinder",
+            ),
+            (None, Some(c)) => {
+                return Err(invalid(
+                    "--cylinder",
+                    format!("{} values given, expected RADIUS,HEIGHT", c.len()),
+                ))
+            }
+            (None, None) => (None, ""),
+        };
+        if let Some(c) = &container {
+            c.check().map_err(|e| invalid(option, e))?;
+        }
+        Ok(ImportOptions {
+            // Periodic flags alone apply to the file's box; with a box they are in it.
+            periodic: periodic.filter(|_| container.is_none()),
+            container,
+        })
+    }
 }
 
 /// What a reader found: the particles and the container if the file has one.

@@ -59,6 +59,15 @@ class Packing:
 
     @staticmethod
     def load(path: Union[str, os.PathLike[str]]) -> Packing: ...
+    @staticmethod
+    def import_file(
+        path: Union[str, os.PathLike[str]],
+        source: str,
+        *,
+        box: Optional[Sequence[float]] = None,
+        cylinder: Optional[Sequence[float]] = None,
+        periodic: Optional[Sequence[bool]] = None,
+    ) -> Packing: ...
     def save(self, path: Union[str, os.PathLike[str]]) -> None: ...
     @staticmethod
     def from_json(text: str, name: str = "<json>") -> Packing: ...
