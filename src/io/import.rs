@@ -204,6 +204,15 @@ impl ImportOptions {
     }
 }
 
+/// The words of a LAMMPS data-file line before its `#` comment.
+fn data_words(line: &str) -> Vec<&str> {
+    line.split('#')
+        .next()
+        .unwrap_or("")
+        .split_whitespace()
+        .collect()
+}
+
 /// What a reader found: the particles and the container if the file has one.
 #[derive(Debug)]
 struct Read {
@@ -387,12 +396,7 @@ fn read_lammps_data(text: &str, periodic: Option<[bool; 3]>) -> Result<Read, Bad
         let Some(raw) = lines.get(n - 1) else {
             return Err(bad(n, "Atoms", "no Atoms section"));
         };
-        let words: Vec<&str> = raw
-            .split('#')
-            .next()
-            .unwrap_or("")
-            .split_whitespace()
-            .collect();
+        let words = data_words(raw);
         match words[..] {
             [] => continue,
             [count, "atoms"] => {
@@ -458,12 +462,7 @@ fn read_lammps_data(text: &str, periodic: Option<[bool; 3]>) -> Result<Read, Bad
                 format!("{} atom lines, the header says {atoms}", particles.len()),
             ));
         };
-        let words: Vec<&str> = raw
-            .split('#')
-            .next()
-            .unwrap_or("")
-            .split_whitespace()
-            .collect();
+        let words = data_words(raw);
         if words.is_empty() {
             continue;
         }

@@ -932,9 +932,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
 
     /// Puts particle `i`'s earliest local event into the queue (or removes it). A list that
     /// ran empty after dropping predictions is predicted afresh first. Inlined always: it
-    /// runs after every event, and a call costs ~5 instructions of the ~5 500 an event
-    /// takes; the compiler's own choice flips with small changes elsewhere in the loop
-    /// (it stopped inlining it when the cancel check was added: +0.5 % instructions).
+    /// runs after every event, and the compiler's own choice flips with unrelated changes
+    /// elsewhere in the event loop.
     #[inline(always)]
     fn reschedule(&mut self, i: usize) {
         if self.local.exhausted(i) {
