@@ -32,7 +32,22 @@ fn packing_file(name: &str) -> (PathBuf, PathBuf) {
 fn bad_export_options_fail_with_exit_code_2_name_the_option_and_write_nothing() {
     let (dir, packing) = packing_file("bad");
     let p = packing.to_str().unwrap();
-    let cases: [(&[&str], &str); 9] = [
+    let cases: [(&[&str], &str); 11] = [
+        (
+            &[
+                "--format",
+                "gmsh",
+                "--out",
+                "x.geo",
+                "--partial-volume",
+                "2",
+            ],
+            "--partial-volume",
+        ),
+        (
+            &["--format", "csv", "--out", "x.csv", "--labels", "particle"],
+            "--labels",
+        ),
         (&["--format", "vtk", "--out", "x.vtk"], "--out"),
         (&["--format", "vti", "--out", "x.vtk"], "--out"),
         (&["--format", "abaqus", "--out", "x.abq"], "--out"),

@@ -252,9 +252,10 @@ impl Packing {
 
     /// Writes the packing as `format` (`gmsh`, `vtk`, `vti`, `abaqus`, `npy`, `raw`, `csv`,
     /// `xyzd`, `lammps`: the formats of `densepack export`, with its options as keywords:
-    /// `voxels`, `labels` ("phase" or "particle"), `partial_volume` (samples per axis; voxel
-    /// formats), `interface`, `mesh_size`, `shrink` (gmsh)). An option the format does not use raises `ValueError` naming it. Returns
-    /// a dict of what was written.
+    /// `voxels`, `labels` ("phase" or "particle"; voxel formats, and gmsh: physical volumes
+    /// per kind or per particle), `partial_volume` (samples per axis; voxel formats),
+    /// `interface`, `mesh_size`, `shrink` (gmsh)). An option the format does not use raises
+    /// `ValueError` naming it. Returns a dict of what was written.
     #[pyo3(signature = (path, format, *, voxels=None, labels=None, partial_volume=None,
                         interface=None, mesh_size=None, shrink=None))]
     #[expect(

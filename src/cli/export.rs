@@ -41,7 +41,8 @@ pub struct ExportArgs {
     /// Voxel formats (npy, raw, vti, abaqus): voxels along the longest container edge [default: 128].
     #[arg(long)]
     voxels: Option<usize>,
-    /// Voxel formats: what a label means [default: phase].
+    /// Voxel formats: what a label means [default: phase]. Gmsh: physical volumes per kind
+    /// (phase) or one per particle (particle).
     #[arg(long, value_enum)]
     labels: Option<LabelsArg>,
     /// Voxel formats: write float32 solid fractions per voxel from S³ sample points (composite

@@ -2,10 +2,12 @@
 """Reads densepack exports back with real readers and checks them against the packing JSON.
 
 Usage: check_exports.py KIND PACKING.json FILE [options]
-  gmsh  FILE.msh  [--shrink S] [--interface T] [--tolerance 0.02]
-        meshio reads the mesh; volumes per physical group (sum of tetrahedron volumes) must
-        match the exact volumes computed here from the packing within the tolerance; on
-        periodic axes the nodes of opposite faces must coincide after translation.
+  gmsh  FILE.msh  [--shrink S] [--interface T] [--labels particle] [--tolerance 0.02]
+        meshio reads the mesh; volumes per physical group (sum of tetrahedron volumes: per
+        kind, or per particle with --labels particle) must match the exact volumes computed
+        here from the packing within the tolerance; the container's faces are physical
+        surfaces of the exact areas; on periodic axes the nodes of opposite faces must
+        coincide after translation.
   vtk   FILE.vtu   meshio reads it; points, radii, semi-axes, orientations, half axes and
                    shape tensors equal the packing's (ellipsoid and cylinder values recomputed
                    here from the quaternions and half axes).
@@ -161,20 +163,45 @@ def check_gmsh(packing_path, mesh_path, args):
     mesh = meshio.read(mesh_path)
     groups = {name: int(tag) for name, (tag, dim) in
               ((n, v[:2]) for n, v in mesh.field_data.items()) if dim == 3}
-    expected_names = {"matrix", "aggregates"} | ({"interface"} if shell > 0 else set())
-    assert set(groups) == expected_names, f"physical volumes {groups}, expected {expected_names}"
-    # Exact volumes: periodic images reassemble whole particles; walls keep them inside.
+    # The particles' physical volumes: one per particle with --labels particle, else one per
+    # kind present ("aggregates" when there is one kind).
+    by_particle = "--labels" in args and args[args.index("--labels") + 1] == "particle"
+    kind_names = {"sphere": "spheres", "ellipsoid": "ellipsoids", "cylinder": "cylinders"}
+    kinds = {q["type"] for q in p["particles"]}
+    def group_of(i, q):
+        if by_particle:
+            return f"particle_{i}"
+        return "aggregates" if len(kinds) == 1 else kind_names[q["type"]]
     r = radii * (1.0 - shrink)
-    aggregates = sum(particle_volume(q, 1.0 - shrink) for q in p["particles"])
+    expected = {}
+    for i, q in enumerate(p["particles"]):
+        g = group_of(i, q)
+        expected[g] = expected.get(g, 0.0) + particle_volume(q, 1.0 - shrink)
+    aggregates = sum(expected.values())
     interface = float(np.sum(4.0 / 3.0 * math.pi * ((r + shell) ** 3 - r ** 3))) if shell > 0 else 0.0
     total = container_volume(p["container"])
-    expected = {"aggregates": aggregates, "matrix": total - aggregates - interface}
+    expected["matrix"] = total - aggregates - interface
     if shell > 0:
         expected["interface"] = interface
+    assert set(groups) == set(expected), f"physical volumes {sorted(groups)}, expected {sorted(expected)}"
+    if by_particle:
+        for name, tag in groups.items():
+            if name.startswith("particle_"):
+                assert tag == 1000 + int(name[len("particle_"):]), f"{name} has tag {tag}"
     volumes = {name: 0.0 for name in groups}
     pts = mesh.points
     tets = 0
+    faces = {name: int(tag) for name, (tag, dim) in
+             ((n, v[:2]) for n, v in mesh.field_data.items()) if dim == 2}
+    areas = {name: 0.0 for name in faces}
     for block, phys in zip(mesh.cells, mesh.cell_data["gmsh:physical"]):
+        if block.type in ("triangle", "triangle6"):
+            # Corner nodes only: exact for the planar faces, a polygon for curved ones.
+            t = block.data[:, :3]
+            a = 0.5 * np.linalg.norm(np.cross(pts[t[:, 1]] - pts[t[:, 0]], pts[t[:, 2]] - pts[t[:, 0]]), axis=1)
+            for name, tag in faces.items():
+                areas[name] += float(a[phys == tag].sum())
+            continue
         if block.type == "tetra":
             vol = linear_tet_volumes(pts, block.data)
         elif block.type == "tetra10":
@@ -187,8 +214,28 @@ def check_gmsh(packing_path, mesh_path, args):
     assert tets > 0, "no tetrahedra in the mesh"
     for name, v in expected.items():
         rel = volumes[name] / v - 1.0
-        print(f"gmsh: {name}: mesh volume {volumes[name]:.6g}, exact {v:.6g}, relative {rel:+.3%}")
+        if not name.startswith("particle_"):
+            print(f"gmsh: {name}: mesh volume {volumes[name]:.6g}, exact {v:.6g}, relative {rel:+.3%}")
         assert abs(rel) <= tol, f"{name}: mesh volume off by {rel:+.3%} (tolerance {tol:.0%})"
+    if by_particle:
+        print(f"gmsh: {len(expected) - 1 - (shell > 0)} per-particle volumes within {tol:.0%}")
+    # The container's faces: exact areas (planes), or within the tolerance (a cylinder's
+    # curved side and its discs, approximated by the corner nodes' polygons).
+    c = p["container"]
+    if c["type"] == "box":
+        e = np.array(c["max"], dtype=float) - np.array(c["min"], dtype=float)
+        face_area = {f"{'xyz'[k]}{side}": float(e[(k + 1) % 3] * e[(k + 2) % 3])
+                     for k in range(3) for side in ("min", "max")}
+        face_tol = 1e-9
+    else:
+        disc = math.pi * c["radius"] ** 2
+        face_area = {"bottom": disc, "top": disc, "side": 2.0 * math.pi * c["radius"] * c["height"]}
+        face_tol = tol
+    assert set(faces) == set(face_area), f"physical surfaces {sorted(faces)}, expected {sorted(face_area)}"
+    for name, a in face_area.items():
+        rel = areas[name] / a - 1.0
+        assert abs(rel) <= face_tol, f"surface {name}: area {areas[name]:.6g}, exact {a:.6g} ({rel:+.3%})"
+    print(f"gmsh: container faces {', '.join(sorted(faces))}: areas within {face_tol:g}")
     c = p["container"]
     if c["type"] == "box":
         # The exporter may translate a periodic box (a symmetry): take the faces from the mesh.

@@ -84,6 +84,8 @@ run_check "gmsh walls, jammed, shrunk" mesh walls walls --shrink 0.05
 run_check "gmsh ellipsoids, walls" mesh ellipsoids_walls ellipsoids_walls
 # Spheres and cylinders (exact volumes pi r^2 2|l|) in a periodic cube.
 run_check "gmsh sphere + cylinder mixture, periodic" mesh mixture mixture
+run_check "gmsh mixture, a group per particle" mesh mixture mixture_particles --labels particle
+run_check "gmsh cylinder, a group per particle" mesh cylinder cylinder_particles --labels particle
 
 for packing in periodic cylinder ellipsoids ellipsoids_walls mixture; do
   "$bin" export "$work/$packing.json" --format vtk --out "$work/$packing.vtu" >/dev/null

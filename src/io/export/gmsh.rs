@@ -8,13 +8,22 @@
 //! | physical volume | tag | what |
 //! |---|---|---|
 //! | `matrix` | 1 | container minus particles (minus shells) |
-//! | `aggregates` | 2 | the particles |
+//! | `aggregates` | 2 | the particles, when they are all of one kind ([`GmshGroups::ByKind`]) |
+//! | `spheres`, `ellipsoids`, `cylinders` | 4, 5, 6 | the particles of each kind present, when there are several ([`GmshGroups::ByKind`]) |
+//! | `particle_<i>` | 1000 + i | particle `i` of the packing (0-based, the file's order), all its periodic pieces ([`GmshGroups::ByParticle`]) |
 //! | `interface` | 3 | shells of thickness `t` around the particles (only with `interface_thickness`) |
 //!
-//! A fragment is an aggregate when it lies inside the bounding box of a particle, an interface
-//! piece when it lies inside the bounding box of a shell and is no aggregate; the matrix is
-//! connected and spans the container, so it never fits a particle's box (every particle is
-//! smaller than the container).
+//! and physical surfaces for boundary conditions, the container's faces after fragmentation
+//! (on a periodic face, the pieces of the particles it cuts included):
+//!
+//! | container | physical surfaces (tags) |
+//! |---|---|
+//! | box | `xmin` (11), `xmax` (12), `ymin` (13), `ymax` (14), `zmin` (15), `zmax` (16) |
+//! | cylinder | `bottom` (11), `top` (12), `side` (13) |
+//!
+//! Every volume keeps the tag it was created with through the final `BooleanFragments` (the
+//! volumes are disjoint by then, so fragmentation only merges shared faces): the groups are
+//! lists of those tags, no search by bounding boxes.
 //!
 //! **Periodic boxes.** A particle cut by a periodic face is written with each of its images
 //! that reaches into the box, all clipped to the box, so the pieces on opposite faces match;
@@ -41,11 +50,37 @@ pub struct GmshOptions {
     /// Relative radius reduction applied to every particle before export, in `[0, 1)`:
     /// `r → (1 − shrink) r` about the same centre.
     pub shrink: f64,
+    /// How the particles are sorted into physical volumes.
+    pub groups: GmshGroups,
+}
+
+/// How [`write_geo`] sorts the particles into physical volumes (see the module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum GmshGroups {
+    /// One group per particle kind present (`aggregates` when there is one kind).
+    #[default]
+    ByKind,
+    /// One group per particle, `particle_<i>`.
+    ByParticle,
+}
+
+/// The physical volume of a particle kind in a packing with several kinds: its name and
+/// tag (3 + the voxel phase id of the kind, so that tags 1–3 keep their meaning).
+fn kind_group(p: &ParticleRecord) -> (&'static str, usize) {
+    let id = usize::from(super::voxel::phase_id(p));
+    let name = match p {
+        ParticleRecord::Sphere { .. } => "spheres",
+        ParticleRecord::Ellipsoid { .. } => "ellipsoids",
+        ParticleRecord::Cylinder { .. } => "cylinders",
+    };
+    (name, 3 + id)
 }
 
 /// One solid of the script: a particle (or shell) translated by a periodic image shift.
 struct Solid<'a> {
     particle: &'a ParticleRecord,
+    /// Index of the particle in the packing.
+    index: usize,
     shift: [f64; 3],
     /// Added to every radius / semi-axis (shells).
     inflate: f64,
@@ -351,6 +386,75 @@ pub fn write_geo(
     Ok(report)
 }
 
+/// A `.geo` list of volume tags, runs of consecutive tags written as ranges `a:b`.
+fn tag_list(tags: &[usize]) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    let mut k = 0;
+    while k < tags.len() {
+        let mut end = k;
+        while end + 1 < tags.len() && tags[end + 1] == tags[end] + 1 {
+            end += 1;
+        }
+        parts.push(if end == k {
+            tags[k].to_string()
+        } else {
+            format!("{}:{}", tags[k], tags[end])
+        });
+        k = end + 1;
+    }
+    parts.join(", ")
+}
+
+/// The physical surfaces of the container's faces (see the module docs): each face is the
+/// set of surfaces inside a box `eps` thick around its plane; a cylinder's side is the rest
+/// of the model's outer boundary.
+fn write_face_groups(
+    w: &mut impl Write,
+    container: &ContainerRecord,
+    lo: [f64; 3],
+    hi: [f64; 3],
+    eps: f64,
+) -> std::io::Result<()> {
+    let slab = |axis: usize, at: f64| -> String {
+        let mut a = lo.map(|x| x - eps);
+        let mut b = hi.map(|x| x + eps);
+        a[axis] = at - eps;
+        b[axis] = at + eps;
+        format!(
+            "Surface In BoundingBox{{{}, {}, {}, {}, {}, {}}}",
+            a[0], a[1], a[2], b[0], b[1], b[2]
+        )
+    };
+    writeln!(w, "// Container faces, for boundary conditions.")?;
+    match container {
+        ContainerRecord::Box { .. } => {
+            for (axis, letter) in ["x", "y", "z"].into_iter().enumerate() {
+                for (side, (suffix, at)) in [("min", lo[axis]), ("max", hi[axis])]
+                    .into_iter()
+                    .enumerate()
+                {
+                    writeln!(
+                        w,
+                        "Physical Surface(\"{letter}{suffix}\", {}) = {};",
+                        11 + 2 * axis + side,
+                        slab(axis, at)
+                    )?;
+                }
+            }
+        }
+        ContainerRecord::Cylinder { .. } => {
+            writeln!(w, "bottom() = {};", slab(2, lo[2]))?;
+            writeln!(w, "top() = {};", slab(2, hi[2]))?;
+            writeln!(w, "side() = Abs(CombinedBoundary{{ Volume{{:}}; }});")?;
+            writeln!(w, "side() -= {{bottom(), top()}};")?;
+            writeln!(w, "Physical Surface(\"bottom\", 11) = {{bottom()}};")?;
+            writeln!(w, "Physical Surface(\"top\", 12) = {{top()}};")?;
+            writeln!(w, "Physical Surface(\"side\", 13) = {{side()}};")?;
+        }
+    }
+    Ok(())
+}
+
 fn geo(
     packing: &Packing,
     opts: &GmshOptions,
@@ -378,7 +482,8 @@ fn geo(
     writeln!(w, "// {}", provenance_line(packing))?;
     writeln!(
         w,
-        "// Physical volumes: \"matrix\" (1), \"aggregates\" (2){}. Lengths in the packing's unit.",
+        "// Physical volumes: \"matrix\" (1), the particles' groups (below){}; physical surfaces:\n\
+         // the container's faces. Lengths in the packing's unit.",
         if opts.interface_thickness.is_some() {
             ", \"interface\" (3)"
         } else {
@@ -421,7 +526,7 @@ fn geo(
     let clip = periodic.iter().any(|&p| p);
     let mut cores: Vec<Solid> = Vec::new();
     let mut shells: Vec<Solid> = Vec::new();
-    for p in &packing.particles {
+    for (index, p) in packing.particles.iter().enumerate() {
         let (c, r) = bounding_sphere(p);
         // Wrap into the (translated) box first; the images then reach across its faces.
         let wrap: [f64; 3] = std::array::from_fn(|k| {
@@ -436,12 +541,14 @@ fn geo(
             let shift: [f64; 3] = std::array::from_fn(|k| wrap[k] + image[k]);
             cores.push(Solid {
                 particle: p,
+                index,
                 shift,
                 inflate: 0.0,
             });
             if opts.interface_thickness.is_some() {
                 shells.push(Solid {
                     particle: p,
+                    index,
                     shift,
                     inflate: shell,
                 });
@@ -464,15 +571,49 @@ fn geo(
         w,
         "// volumes whose tags the final fragmentation keeps (it only merges shared faces)."
     )?;
-    if cores.is_empty() {
-        writeln!(w, "aggregates() = {{}};")?;
-    } else if clip {
-        writeln!(
-            w,
-            "aggregates() = BooleanIntersection{{ Volume{{{first_core}:{last_core}}}; Delete; }}{{ Volume{{2}}; Delete; }};"
-        )?;
-    } else {
-        writeln!(w, "aggregates() = {{{first_core}:{last_core}}};")?;
+    // The physical volumes of the particles: (name, tag, core tags), in order of first
+    // appearance. Cores are pushed particle by particle, so a particle's tags are contiguous.
+    let kinds = {
+        let mut seen: Vec<(&str, usize)> = Vec::new();
+        for p in &packing.particles {
+            let g = kind_group(p);
+            if !seen.contains(&g) {
+                seen.push(g);
+            }
+        }
+        seen.len()
+    };
+    let mut groups: Vec<(String, usize, Vec<usize>)> = Vec::new();
+    for (k, solid) in cores.iter().enumerate() {
+        let (name, tag) = match opts.groups {
+            GmshGroups::ByParticle => (format!("particle_{}", solid.index), 1000 + solid.index),
+            GmshGroups::ByKind if kinds == 1 => ("aggregates".to_string(), 2),
+            GmshGroups::ByKind => {
+                let (name, tag) = kind_group(solid.particle);
+                (name.to_string(), tag)
+            }
+        };
+        match groups.iter_mut().find(|g| g.1 == tag) {
+            Some(g) => g.2.push(first_core + k),
+            None => groups.push((name, tag, vec![first_core + k])),
+        }
+    }
+    writeln!(w, "aggregates() = {{}};")?;
+    for (g, (_, _, tags)) in groups.iter().enumerate() {
+        let list = tag_list(tags);
+        if clip {
+            // The clipping box (tag 2) is kept as the tool of every group and deleted after.
+            writeln!(
+                w,
+                "group{g}() = BooleanIntersection{{ Volume{{{list}}}; Delete; }}{{ Volume{{2}}; }};"
+            )?;
+        } else {
+            writeln!(w, "group{g}() = {{{list}}};")?;
+        }
+        writeln!(w, "aggregates() += group{g}();")?;
+    }
+    if clip {
+        writeln!(w, "Recursive Delete {{ Volume{{2}}; }}")?;
     }
     if opts.interface_thickness.is_some() && !cores.is_empty() {
         let first_shell = last_core + 1;
@@ -510,10 +651,16 @@ fn geo(
         )?;
     }
     writeln!(w, "Physical Volume(\"matrix\", 1) = {{matrix()}};")?;
-    writeln!(w, "Physical Volume(\"aggregates\", 2) = {{aggregates()}};")?;
+    if groups.is_empty() {
+        writeln!(w, "Physical Volume(\"aggregates\", 2) = {{}};")?;
+    }
+    for (g, (name, tag, _)) in groups.iter().enumerate() {
+        writeln!(w, "Physical Volume(\"{name}\", {tag}) = {{group{g}()}};")?;
+    }
     if opts.interface_thickness.is_some() {
         writeln!(w, "Physical Volume(\"interface\", 3) = {{interface()}};")?;
     }
+    write_face_groups(w, &packing.container, lo, hi, eps)?;
 
     for k in (0..3).filter(|&k| periodic[k]) {
         let len = hi[k] - lo[k];
@@ -629,6 +776,61 @@ mod tests {
         let report = check(&packing, &shells(0.3), &spheres_in_walled_box).unwrap();
         assert!((report.narrowest_gap.unwrap() - 0.2).abs() < 1e-12);
         assert!(check(&packing, &shells(0.5), &spheres_in_walled_box).is_err());
+    }
+
+    #[test]
+    fn tag_lists_write_runs_of_consecutive_tags_as_ranges() {
+        assert_eq!(tag_list(&[2, 3, 4, 7, 9, 10]), "2:4, 7, 9:10");
+        assert_eq!(tag_list(&[5]), "5");
+        assert_eq!(tag_list(&[]), "");
+    }
+
+    #[test]
+    fn mixtures_get_a_volume_per_kind_or_per_particle_and_boxes_six_named_faces() {
+        let packing: Packing = serde_json::from_str(
+            r#"{"format": "densepack-packing", "version": 1,
+                "container": {"type": "box", "min": [0,0,0], "max": [10,10,10], "periodic": [false,false,false]},
+                "particles": [{"type": "sphere", "center": [2, 5, 5], "radius": 1},
+                              {"type": "cylinder", "center": [6, 5, 5], "radius": 1, "half_axis": [0, 0, 2]},
+                              {"type": "sphere", "center": [8.5, 5, 5], "radius": 1}],
+                "min_gap": 0, "seed": 0,
+                "stats": {"packing_fraction": 0, "reduced_pressure": 0, "events": 0,
+                          "collisions": 0, "wall_seconds": 0, "stop_reason": ""}}"#,
+        )
+        .unwrap();
+        let script = |groups| {
+            let mut out = Vec::new();
+            let opts = GmshOptions {
+                groups,
+                ..Default::default()
+            };
+            geo(&packing, &opts, 0.5, &mut out).unwrap();
+            String::from_utf8(out).unwrap()
+        };
+        // Tags: container 1, then the three particles 2, 3, 4.
+        let by_kind = script(GmshGroups::ByKind);
+        assert!(by_kind.contains("group0() = {2, 4};"), "{by_kind}");
+        assert!(by_kind.contains("group1() = {3};"), "{by_kind}");
+        assert!(by_kind.contains("Physical Volume(\"spheres\", 4) = {group0()};"));
+        assert!(by_kind.contains("Physical Volume(\"cylinders\", 6) = {group1()};"));
+        assert!(!by_kind.contains("\"aggregates\""));
+        let by_particle = script(GmshGroups::ByParticle);
+        for i in 0..3 {
+            assert!(
+                by_particle.contains(&format!("Physical Volume(\"particle_{i}\", {})", 1000 + i)),
+                "{by_particle}"
+            );
+        }
+        for (face, tag) in [
+            ("xmin", 11),
+            ("xmax", 12),
+            ("ymin", 13),
+            ("ymax", 14),
+            ("zmin", 15),
+            ("zmax", 16),
+        ] {
+            assert!(by_kind.contains(&format!("Physical Surface(\"{face}\", {tag})")));
+        }
     }
 
     #[test]

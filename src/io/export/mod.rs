@@ -107,7 +107,8 @@ impl Format {
     pub fn describe(self) -> &'static str {
         match self {
             Format::Gmsh => {
-                "Gmsh `.geo` script (OpenCASCADE): physical volumes matrix, aggregates[, interface]"
+                "Gmsh `.geo` script (OpenCASCADE): physical volumes matrix, aggregates (per kind, or \
+                 per particle with --labels particle)[, interface], surfaces xmin … zmax"
             }
             Format::Vtk => "VTK `.vtu` points with radius, semi_axes, orientation (ParaView glyphs)",
             Format::Vti => {
@@ -174,7 +175,9 @@ pub struct ExportOptions {
     /// Voxel formats (`npy`, `raw`, `vti`, `abaqus`): voxels along the longest container
     /// edge (default 128).
     pub voxels: Option<usize>,
-    /// Voxel formats: what a voxel holds (default [`voxel::Labels::Phase`]).
+    /// Voxel formats: what a voxel holds (default [`voxel::Labels::Phase`]). Gmsh: the
+    /// physical volumes of the particles, per kind ([`voxel::Labels::Phase`], the default)
+    /// or per particle ([`voxel::Labels::Particle`]).
     pub labels: Option<voxel::Labels>,
     /// Gmsh: thickness of interface shells around the particles.
     pub interface: Option<f64>,
@@ -224,12 +227,19 @@ pub fn export(
         }
     }
     if !format.uses_voxels() {
-        for (given, option) in [
-            (options.voxels.is_some(), "--voxels"),
-            (options.labels.is_some(), "--labels/--partial-volume"),
-        ] {
-            if given {
-                return Err(only(option, "npy, raw, vti or abaqus"));
+        if options.voxels.is_some() {
+            return Err(only("--voxels", "npy, raw, vti or abaqus"));
+        }
+        match (format, options.labels) {
+            (_, None) | (Format::Gmsh, Some(voxel::Labels::Phase | voxel::Labels::Particle)) => {}
+            (Format::Gmsh, Some(voxel::Labels::PartialVolume(_))) => {
+                return Err(only("--partial-volume", "npy, raw, vti or abaqus"))
+            }
+            (_, Some(_)) => {
+                return Err(only(
+                    "--labels/--partial-volume",
+                    "npy, raw, vti, abaqus or gmsh (--labels only)",
+                ))
             }
         }
     }
@@ -253,6 +263,10 @@ pub fn export(
                 interface_thickness: options.interface,
                 mesh_size: options.mesh_size,
                 shrink: options.shrink.unwrap_or(0.0),
+                groups: match options.labels {
+                    Some(voxel::Labels::Particle) => gmsh::GmshGroups::ByParticle,
+                    _ => gmsh::GmshGroups::ByKind,
+                },
             },
             check_surfaces,
             path,
