@@ -130,6 +130,9 @@ pub enum StopReason {
     PressureReached,
     /// The requested simulated time passed.
     TimeReached,
+    /// A gap stage opened its gap Δd (set by the runner, whose gap rule turns Δd into the
+    /// stage's time; the kernel itself stops with [`StopReason::TimeReached`]).
+    GapReached,
     /// The requested number of collisions per particle was processed.
     CollisionsReached,
     /// Simulated time stopped advancing (Δt < ε over 1000 events, or no advance at all over
@@ -155,6 +158,7 @@ impl StopReason {
             Self::PackingFractionReached
                 | Self::PressureReached
                 | Self::TimeReached
+                | Self::GapReached
                 | Self::CollisionsReached
         )
     }
@@ -180,6 +184,7 @@ impl StopReason {
             Self::PackingFractionReached => "packing_fraction_reached",
             Self::PressureReached => "pressure_reached",
             Self::TimeReached => "time_reached",
+            Self::GapReached => "gap_reached",
             Self::CollisionsReached => "collisions_reached",
             Self::Stalled => "stalled",
             Self::EventLimit => "event_limit",

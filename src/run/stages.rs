@@ -108,6 +108,11 @@ pub fn gap_opened(grown: f64) -> f64 {
     2.0 * grown
 }
 
+/// Relative extra time of a gap stage (see [`kernel_stage`]): the gap overshoots the
+/// requested Δd by at most this fraction, far more than the rounding of the accumulated
+/// growth (about 10⁻¹⁵ of a radius per barrier) and far below any length a user resolves.
+const GAP_TIME_MARGIN: f64 = 1e-9;
+
 /// The kernel stage a scene's stage `spec` describes. `full_size_fraction` is the packing
 /// fraction of the particles at their true sizes (the `full_size` goal). The schema
 /// (`io::scene`) validates and describes the spec; the conversion is the runner's.
@@ -129,8 +134,11 @@ pub fn kernel_stage(spec: &StageSpec, full_size_fraction: f64) -> Stage {
     }
     if let (Some(gap), Some(rate)) = (u.gap, spec.rate) {
         // At the fixed absolute rate the gap opens at `gap_opened(rate)` per unit time (the
-        // rule is linear), so it reaches Δd at `Δd / gap_opened(rate)` (Eq. 31).
-        let t = gap / gap_opened(rate);
+        // rule is linear), so it reaches Δd at `Δd / gap_opened(rate)` (Eq. 31). The stage
+        // runs `GAP_TIME_MARGIN` longer, so that rounding in the growth accumulated over
+        // thousands of barriers cannot leave a grain short of Δd/2: the packing then keeps
+        // the requested Δd, which is what it claims (`StagesDone::requested_gap`).
+        let t = gap / gap_opened(rate) * (1.0 + GAP_TIME_MARGIN);
         until.time = Some(until.time.map_or(t, |x| x.min(t)));
     }
     // Δd maximisation ends when the grains jam; any other growing stage that jams fails
@@ -194,6 +202,8 @@ pub(super) struct StagesDone {
     pub(super) reports: Vec<StageReport>,
     /// `StageSpec::wall_gap_fraction` of the gap stage, if one ran.
     pub(super) wall_gap_fraction: Option<f64>,
+    /// The gap Δd a `gap` stage asked for (not set by Δd maximisation).
+    pub(super) requested_gap: Option<f64>,
     /// The gap Δd over time in a gap stage (paper 001, Fig. 10), at most
     /// [`GAP_HISTORY_POINTS`] barriers, evenly thinned; from the resume on after a restart.
     pub(super) gap_history: Vec<GapSample>,
@@ -250,12 +260,14 @@ where
         mut reports,
     } = from;
     let mut wall_gap_fraction = None;
+    let mut requested_gap = None;
     let mut gap_history: Vec<GapSample> = Vec::new();
     for (k, spec) in scene.stages.iter().enumerate().skip(first) {
         // A resumed stage continues where its checkpoint was taken.
         let progress = resumed.take();
         if spec.opens_gap() {
             wall_gap_fraction = Some(spec.wall_gap_fraction());
+            requested_gap = spec.until.gap;
         }
         let stage = kernel_stage(spec, full_size_fraction);
         let progress = progress.unwrap_or_else(|| kernel.start_stage(&stage));
@@ -265,7 +277,7 @@ where
         let units = Units::of(job.scene);
         let mut stride = 1usize;
         let mut barrier = 0usize;
-        let report = kernel.continue_stage(&stage, progress, &mut |kernel, p| {
+        let mut report = kernel.continue_stage(&stage, progress, &mut |kernel, p| {
             let mut observed = p.observed(kernel);
             observed.gap = opens_gap.then(|| units.to_scene(gap_opened(observed.grown)));
             on_progress(k, &observed);
@@ -294,6 +306,15 @@ where
                 c.at_barrier(k, p, &reports, kernel);
             }
         });
+        // A gap stage's end time is the time its gap takes (unless the scene set a shorter
+        // `until.time`): say so, rather than that a time ran out.
+        let gap_time_governs = spec.until.time.is_none_or(|t| stage.until.time < Some(t));
+        if spec.until.gap.is_some()
+            && gap_time_governs
+            && report.stop_reason == StopReason::TimeReached
+        {
+            report.stop_reason = StopReason::GapReached;
+        }
         on_stage(k, &report);
         if report.stop_reason == StopReason::Cancelled {
             return Err(RunError::Cancelled);
@@ -303,7 +324,10 @@ where
         // gap does not fit. Δd maximisation ends when the gap cannot grow: jammed, or time
         // stopped advancing.
         let reached = if spec.until.gap.is_some() {
-            report.stop_reason == StopReason::TimeReached
+            matches!(
+                report.stop_reason,
+                StopReason::GapReached | StopReason::TimeReached
+            )
         } else {
             report.stop_reason.is_success()
                 || (spec.until.max_gap == Some(true) && report.stop_reason == StopReason::Stalled)
@@ -326,6 +350,7 @@ where
     Ok(StagesDone {
         reports,
         wall_gap_fraction,
+        requested_gap,
         gap_history,
     })
 }
