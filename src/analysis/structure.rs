@@ -55,6 +55,9 @@ pub const PROFILE_DEPTH: f64 = 5.0;
 /// at `s = 1 − 10⁻¹⁶` (rounding) belongs to the contact bin `[1, 1 + w)`.
 const EDGE_SLACK: f64 = 1e-9;
 
+/// End of the window of the second peak's sub-peak near 2 (see [`SecondPeak`]).
+const SECOND_PEAK_END: f64 = 2.15;
+
 /// One peak of g: the centre of its bin and the value there.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Peak {
@@ -65,7 +68,8 @@ pub struct Peak {
 }
 
 /// The second peak of g, looked for as two sub-peaks: the highest bin with centre in
-/// `[1.5, (√3 + 2)/2)` and the highest in `[(√3 + 2)/2, 2.5)`.
+/// `[1.5, (√3 + 2)/2)` and the highest in `[(√3 + 2)/2, 2.15)` (below the FCC shell at √5).
+/// In a jammed packing g has a cusp at each of √3 and 2 and falls sharply beyond 2.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct SecondPeak {
     /// The sub-peak near `√3` (edge-sharing tetrahedra, coplanar triangles).
@@ -97,7 +101,7 @@ pub struct RadialDistribution {
     pub wall_margin: f64,
     /// The highest bin with centre below `s = 1.5` (contact, for a jammed packing).
     pub first_peak: Option<Peak>,
-    /// The second peak, when the range reaches `s = 2.5`.
+    /// The second peak, when the range reaches `s = 2.15`.
     pub second_peak: Option<SecondPeak>,
 }
 
@@ -362,7 +366,7 @@ pub fn radial_distribution(
 }
 
 /// The first peak (highest bin with centre below 1.5) and the two sub-peaks of the second
-/// (see [`SecondPeak`]), when the bins reach 2.5.
+/// (see [`SecondPeak`]), when the bins reach [`SECOND_PEAK_END`].
 fn peaks(centres: &[f64], g: &[f64]) -> (Option<Peak>, Option<SecondPeak>) {
     let highest = |lo: f64, hi: f64| -> Option<usize> {
         (0..g.len())
@@ -378,11 +382,11 @@ fn peaks(centres: &[f64], g: &[f64]) -> (Option<Peak>, Option<SecondPeak>) {
     };
     let first = highest(0.0, 1.5).map(peak);
     let middle = 0.5 * (3f64.sqrt() + 2.0);
-    // The last bin's upper edge (centre plus half a width) reaches 2.5.
+    // The last bin's upper edge (centre plus half a width) reaches the window's end.
     let reaches = centres
         .last()
-        .is_some_and(|&c| c + centres[0] >= 2.5 - 1e-9);
-    let second = match (highest(1.5, middle), highest(middle, 2.5)) {
+        .is_some_and(|&c| c + centres[0] >= SECOND_PEAK_END - 1e-9);
+    let second = match (highest(1.5, middle), highest(middle, SECOND_PEAK_END)) {
         (Some(a), Some(b)) if reaches => {
             let dip = g[a + 1..b].iter().copied().fold(f64::INFINITY, f64::min);
             Some(SecondPeak {
