@@ -322,6 +322,11 @@ pub fn radial_distribution(
     let mut weight = 0.0; // Σ_i ρ ⟨(r_i + r_j)³⟩_{j≠i}
     let mut counts = vec![0u64; bins_used];
     let grid = CellGrid::new(&packing.container, &centers, reach);
+    let mut is_reference = vec![false; n];
+    for &i in &references {
+        is_reference[i] = true;
+    }
+    let reach2 = (range_used * (1.0 + 1e-6)).powi(2);
     for &i in &references {
         let ri = radii[i];
         let cubes = others * ri.powi(3)
@@ -332,14 +337,22 @@ pub fn radial_distribution(
         let ci = centers[i];
         grid.for_each_near(&ci, |j| {
             let j = j as usize;
-            if j == i {
+            // A pair of references is counted once for both (at the smaller index).
+            let times = match is_reference[j] {
+                true if j <= i => return,
+                true => 2,
+                false => 1,
+            };
+            let d = grid.separation(&ci, &centers[j]);
+            let sigma = ri + radii[j];
+            let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            // Beyond the range with room for the edge slack: no bin, no square root.
+            if d2 > reach2 * sigma * sigma {
                 return;
             }
-            let d = grid.separation(&ci, &centers[j]);
-            let s = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() / (ri + radii[j]);
-            let k = (s / width + EDGE_SLACK).floor();
+            let k = (d2.sqrt() / sigma / width + EDGE_SLACK).floor();
             if k < bins_used as f64 {
-                counts[k as usize] += 1;
+                counts[k as usize] += times;
             }
         });
     }
