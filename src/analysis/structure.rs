@@ -311,7 +311,8 @@ pub fn radial_distribution(
     if n_ref < 2 || volume <= 0.0 || bins_used == 0 {
         return Err(StructureError::NoReferences(format!(
             "{n_ref} particle(s) have their centres at least {margin:.4} (range × the largest \
-             diameter) from every wall, of {n}: too few for g(r)"
+             diameter) from every wall, of {n}: too few for g(r) (a smaller --gr-range \
+             needs a smaller margin)"
         )));
     }
     let density = (n_ref - 1) as f64 / volume;

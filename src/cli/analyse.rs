@@ -8,6 +8,7 @@ use clap::Args;
 use densepack::analysis::jamming::{jamming_report, JammingReport, DEFAULT_CUTOFF, Q6_FCC};
 use densepack::analysis::structure::{
     check_gr, structure_report, StructureReport, DEFAULT_GR_BINS, DEFAULT_GR_RANGE,
+    SLABS_PER_DIAMETER,
 };
 use densepack::io::packing::Packing;
 use std::path::PathBuf;
@@ -323,7 +324,7 @@ fn structure_text(r: &StructureReport) -> String {
             densest.1,
             w.distance[densest.0],
             mean,
-            w.fraction.len() as f64 / 10.0
+            w.fraction.len() as f64 / SLABS_PER_DIAMETER
         );
     }
     for note in &r.notes {
