@@ -1,7 +1,8 @@
 //! The structure of a packing for `densepack analyse`, computed from the written file alone:
 //!
 //! - **Radial distribution function** `g(s)` of a sphere packing over the scaled distance
-//!   `s = |c_i − c_j| / (r_i + r_j)` (dimensionless: 1 is contact whatever the sizes), periodic
+//!   `s = |c_i − c_j| / (r_i + r_j)` (dimensionless: 1 is contact whatever the sizes; radii as
+//!   written, so a packing with a claimed `min_gap` has its first peak just above 1), periodic
 //!   axes by the minimum image. The count of pairs in a bin `[s_lo, s_hi)` around the
 //!   reference particles is divided by its ideal-gas expectation
 //!   `Σ_i ρ · (4π/3)(s_hi³ − s_lo³) · ⟨(r_i + r_j)³⟩_{j≠i}`, with `ρ = (N_ref − 1)/V_ref` the
