@@ -107,7 +107,8 @@ enum Command {
         tolerance: f64,
     },
     /// Is a sphere packing jammed? Contacts against the gap cut-off, rattlers, the
-    /// backbone's contact number, Q6 and a linear-programming certificate.
+    /// backbone's contact number, Q6 and a linear-programming certificate; then g(r), size
+    /// classes and packing-fraction profiles along the walls.
     Analyse(cli::analyse::AnalyseArgs),
     /// Export a packing for meshing (Gmsh, Abaqus), visualisation (VTK), FFT (voxels, VTK
     /// image data), other codes (LAMMPS, PackingGeneration) or tables (CSV).

@@ -78,7 +78,8 @@
 //!   curvature, which decide jamming of hypostatic ellipsoid packings): it is skipped.
 //! - Q6 uses the centre–centre bonds shorter than 1.2 times the sum of the bounding radii.
 
-use crate::io::export::{bounding_sphere, container_bounds, periodic_axes};
+use super::CellGrid;
+use crate::io::export::{bounding_sphere, periodic_axes};
 use crate::io::packing::{ContainerRecord, Packing, ParticleRecord};
 use crate::verify::{contact_scale, shape_matrix};
 use rand::{Rng, SeedableRng};
@@ -194,6 +195,14 @@ pub struct JammingReport {
     pub lp: Option<LpCertificate>,
     /// Asked for but skipped: the packing has ellipsoids (see the module docs).
     pub lp_skipped: bool,
+    /// Contacts of each particle at [`JammingReport::cutoff`] (partners and walls, before
+    /// rattlers are removed), in the packing's order; not serialised (one number per
+    /// particle), for [`crate::analysis::structure`].
+    #[serde(skip)]
+    pub contact_numbers: Vec<u32>,
+    /// Whether each particle is a rattler at [`JammingReport::cutoff`]; not serialised.
+    #[serde(skip)]
+    pub rattlers: Vec<bool>,
 }
 
 /// Why a packing has no jamming report.
@@ -242,7 +251,8 @@ pub fn jamming_report(
             .sum();
         kept - trivial as i64
     };
-    let row = |h: f64| -> CutoffRow {
+    // The row at cut-off `h` and the backbone's particles.
+    let row_alive = |h: f64| -> (CutoffRow, Vec<bool>) {
         let (alive, backbone) = backbone(n, &contacts, h, &sphere);
         let nb = alive.iter().filter(|&&a| a).count();
         let count = contacts.iter().filter(|c| c.gap < h).count() as f64;
@@ -254,14 +264,23 @@ pub fn jamming_report(
         let b_pairs = backbone.iter().filter(|c| c.j.is_some()).count() as f64;
         let b_walls = backbone.len() as f64 - b_pairs;
         let freedoms = freedoms_of(&alive);
-        CutoffRow {
+        let row = CutoffRow {
             cutoff: h,
             mean_contacts: (2.0 * pairs + walls) / n.max(1) as f64,
             rattler_fraction: (n - nb) as f64 / n.max(1) as f64,
             backbone_mean_contacts: (nb > 0).then(|| (2.0 * b_pairs + b_walls) / nb as f64),
             constraints_per_freedom: (freedoms > 0).then(|| (b_pairs + b_walls) / freedoms as f64),
-        }
+        };
+        (row, alive)
     };
+    let (at_cutoff, alive_at_cutoff) = row_alive(cutoff);
+    let mut contact_numbers = vec![0u32; n];
+    for c in contacts.iter().filter(|c| c.gap < cutoff) {
+        contact_numbers[c.i as usize] += 1;
+        if let Some(j) = c.j {
+            contact_numbers[j as usize] += 1;
+        }
+    }
     let lp_skipped = lp && ellipsoids > 0;
     let lp = (lp && !lp_skipped).then(|| {
         let (alive, backbone) = backbone(n, &contacts, cutoff, &sphere);
@@ -283,14 +302,16 @@ pub fn jamming_report(
         freedoms_per_particle,
         isostatic_contacts: 2.0 * freedoms_per_particle,
         cutoff,
-        at_cutoff: row(cutoff),
-        plateau: PLATEAU_CUTOFFS.iter().map(|&h| row(h)).collect(),
+        at_cutoff,
+        plateau: PLATEAU_CUTOFFS.iter().map(|&h| row_alive(h).0).collect(),
         trivial_motions: trivial,
         q6: q6(&bond_normals),
         q6_random: 1.0 / (bonds.max(1) as f64).sqrt(),
         bonds,
         lp,
         lp_skipped,
+        contact_numbers,
+        rattlers: alive_at_cutoff.iter().map(|&a| !a).collect(),
     })
 }
 
@@ -356,105 +377,45 @@ fn bodies_of(packing: &Packing) -> Result<Vec<Body>, JammingError> {
 /// own search (independent of the kernel's cell grid and lists): every pair closer than
 /// `1.2·(r_i + r_j)` (bounding radii) lies in neighbouring cells.
 fn near_pairs(packing: &Packing, bodies: &[Body], reach: f64) -> (Vec<Contact>, Vec<[f64; 3]>) {
-    let (lo, hi) = container_bounds(&packing.container);
-    let periodic = periodic_axes(&packing.container);
-    let len: [f64; 3] = std::array::from_fn(|k| hi[k] - lo[k]);
     let r_max = bodies.iter().map(|s| s.radius).fold(0.0, f64::max);
     let width = 2.0 * BOND_REACH.max(1.0 + reach) * r_max;
-    // At most about one cell per particle (and at least one per axis).
-    let mut cells: [usize; 3] =
-        std::array::from_fn(|k| ((len[k] / width).floor() as usize).clamp(1, 1 << 20));
-    while cells.iter().product::<usize>() > 4 * bodies.len() + 64 {
-        cells = cells.map(|c| (c / 2).max(1));
-    }
-    let key = |c: &[f64; 3]| -> [usize; 3] {
-        std::array::from_fn(|k| {
-            let x = ((c[k] - lo[k]) / len[k] * cells[k] as f64).floor();
-            (x.max(0.0) as usize).min(cells[k] - 1)
-        })
-    };
-    let linear = |k: [usize; 3]| (k[0] * cells[1] + k[1]) * cells[2] + k[2];
-    let mut start = vec![0usize; cells.iter().product::<usize>() + 1];
-    for b in bodies {
-        start[linear(key(&b.center)) + 1] += 1;
-    }
-    for c in 1..start.len() {
-        start[c] += start[c - 1];
-    }
-    let mut sorted = vec![0u32; bodies.len()];
-    let mut fill = start.clone();
-    for (i, b) in bodies.iter().enumerate() {
-        let c = linear(key(&b.center));
-        sorted[fill[c]] = i as u32;
-        fill[c] += 1;
-    }
-    // Per axis, the distinct neighbouring cell coordinates of cell x.
-    let around = |k: usize, x: usize| -> Vec<usize> {
-        let n = cells[k] as i64;
-        let mut out: Vec<usize> = (-1..=1)
-            .map(|o| x as i64 + o)
-            .filter_map(|y| {
-                if periodic[k] {
-                    Some(y.rem_euclid(n) as usize)
-                } else {
-                    (0..n).contains(&y).then_some(y as usize)
-                }
-            })
-            .collect();
-        out.sort_unstable();
-        out.dedup();
-        out
-    };
+    let centers: Vec<[f64; 3]> = bodies.iter().map(|b| b.center).collect();
+    let grid = CellGrid::new(&packing.container, &centers, width);
     let mut contacts = Vec::new();
     let mut bonds = Vec::new();
     for (i, bi) in bodies.iter().enumerate() {
         let (ci, ri) = (bi.center, bi.radius);
-        let k = key(&ci);
-        for x in around(0, k[0]) {
-            for y in around(1, k[1]) {
-                for z in around(2, k[2]) {
-                    let c = linear([x, y, z]);
-                    for &j in &sorted[start[c]..start[c + 1]] {
-                        if j as usize <= i {
-                            continue;
-                        }
-                        let bj = &bodies[j as usize];
-                        let (cj, rj) = (bj.center, bj.radius);
-                        let mut d = [0.0; 3];
-                        for a in 0..3 {
-                            d[a] = cj[a] - ci[a];
-                            if periodic[a] {
-                                d[a] -= len[a] * (d[a] / len[a]).round();
-                            }
-                        }
-                        let dist = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-                        let sum = ri + rj;
-                        let u = d.map(|x| x / dist);
-                        if dist < BOND_REACH * sum {
-                            bonds.push(u);
-                        }
-                        // Spheres: the exact relative gap. With an ellipsoid it is a lower
-                        // bound of the scale factor's gap (bounding spheres), refined below.
-                        let mut gap = dist / sum - 1.0;
-                        if gap < reach && (bi.shape.is_some() || bj.shape.is_some()) {
-                            let sphere =
-                                |r: f64| [[r * r, 0.0, 0.0], [0.0, r * r, 0.0], [0.0, 0.0, r * r]];
-                            let mi = bi.shape.unwrap_or_else(|| sphere(ri));
-                            let mj = bj.shape.unwrap_or_else(|| sphere(rj));
-                            gap = contact_scale(&mi, &mj, &d) - 1.0;
-                        }
-                        if gap < reach {
-                            contacts.push(Contact {
-                                i: i as u32,
-                                j: Some(j),
-                                normal: u,
-                                gap,
-                            });
-                        }
-                    }
-                }
+        grid.for_each_near(&ci, |j| {
+            if j as usize <= i {
+                return;
             }
-        }
+            let bj = &bodies[j as usize];
+            let (cj, rj) = (bj.center, bj.radius);
+            let d = grid.separation(&ci, &cj);
+            let dist = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            let sum = ri + rj;
+            let u = d.map(|x| x / dist);
+            if dist < BOND_REACH * sum {
+                bonds.push(u);
+            }
+            // Spheres: the exact relative gap. With an ellipsoid it is a lower bound of the
+            // scale factor's gap (bounding spheres), refined below.
+            let mut gap = dist / sum - 1.0;
+            if gap < reach && (bi.shape.is_some() || bj.shape.is_some()) {
+                let sphere = |r: f64| [[r * r, 0.0, 0.0], [0.0, r * r, 0.0], [0.0, 0.0, r * r]];
+                let mi = bi.shape.unwrap_or_else(|| sphere(ri));
+                let mj = bj.shape.unwrap_or_else(|| sphere(rj));
+                gap = contact_scale(&mi, &mj, &d) - 1.0;
+            }
+            if gap < reach {
+                contacts.push(Contact {
+                    i: i as u32,
+                    j: Some(j),
+                    normal: u,
+                    gap,
+                });
+            }
+        });
         walls_of(packing, i, bi, reach, &mut contacts);
     }
     (contacts, bonds)

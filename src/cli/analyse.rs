@@ -1,10 +1,15 @@
 //! `densepack analyse PACKING`: is a sphere or ellipsoid packing jammed? Contacts against the
 //! gap cut-off (the plateau), rattlers, the backbone's contact number beside the isostatic
 //! one, Q6 and (spheres) the LP certificate of collective jamming
-//! ([`densepack::analysis::jamming`]).
+//! ([`densepack::analysis::jamming`]), then the structure: g(r), size classes and wall
+//! profiles ([`densepack::analysis::structure`]).
 
 use clap::Args;
 use densepack::analysis::jamming::{jamming_report, JammingReport, DEFAULT_CUTOFF, Q6_FCC};
+use densepack::analysis::structure::{
+    check_gr, structure_report, StructureReport, DEFAULT_GR_BINS, DEFAULT_GR_RANGE,
+    SLABS_PER_DIAMETER,
+};
 use densepack::io::packing::Packing;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -29,9 +34,23 @@ pub struct AnalyseArgs {
     /// Seed of the LP test's random load.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Number of bins of the radial distribution function g(r) over [0, --gr-range).
+    #[arg(long, default_value_t = DEFAULT_GR_BINS)]
+    pub gr_bins: usize,
+    /// Upper end of g(r) in r/(r_i + r_j) (contact is 1).
+    #[arg(long, default_value_t = DEFAULT_GR_RANGE, allow_negative_numbers = true)]
+    pub gr_range: f64,
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
+}
+
+/// The JSON output: the jamming report's fields, and the structure under `structure`.
+#[derive(serde::Serialize)]
+struct Output<'a> {
+    #[serde(flatten)]
+    jamming: &'a JammingReport,
+    structure: &'a StructureReport,
 }
 
 /// Most particles whose contact network `densepack run` counts after a pressure stop: the
@@ -77,6 +96,10 @@ pub fn run_summary(packing: &Packing) -> Option<String> {
 
 /// Runs `analyse`: exit 0 with the report, 2 on an unreadable packing or a bad option.
 pub fn run(args: &AnalyseArgs) -> ExitCode {
+    if let Err(e) = check_gr(args.gr_bins, args.gr_range) {
+        errln!("error: {e}");
+        return ExitCode::from(2);
+    }
     let packing = match Packing::read(&args.packing) {
         Ok(p) => p,
         Err(e) => {
@@ -97,13 +120,24 @@ pub fn run(args: &AnalyseArgs) -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    let structure = match structure_report(&packing, &report, args.gr_bins, args.gr_range) {
+        Ok(s) => s,
+        Err(e) => {
+            errln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
     if args.json {
+        let output = Output {
+            jamming: &report,
+            structure: &structure,
+        };
         outln!(
             "{}",
-            serde_json::to_string_pretty(&report).expect("serialisable")
+            serde_json::to_string_pretty(&output).expect("serialisable")
         );
     } else {
-        out!("{}", text(&report));
+        out!("{}{}", text(&report), structure_text(&structure));
     }
     ExitCode::SUCCESS
 }
@@ -203,6 +237,98 @@ fn text(r: &JammingReport) -> String {
             lp.status[1],
             lp.seconds
         );
+    }
+    s
+}
+
+/// The structure part of the report for people: g(r)'s peaks, the size classes and a line
+/// per wall profile.
+fn structure_text(r: &StructureReport) -> String {
+    let mut s = String::new();
+    if let Some(g) = &r.radial_distribution {
+        s += &format!(
+            "g(r) over r/(r_i + r_j) in [0, {:.3}), bins of {:.4}{}; {} reference particles{}\n",
+            g.range,
+            g.bin_width,
+            if g.range_cut {
+                " (range cut to half the periodic box)"
+            } else {
+                ""
+            },
+            g.references,
+            if g.wall_margin > 0.0 {
+                format!(" (centres at least {:.4} from every wall)", g.wall_margin)
+            } else {
+                String::new()
+            }
+        );
+        if let Some(p) = &g.first_peak {
+            s += &format!("  first peak at {:.3}, g = {:.2}\n", p.position, p.height);
+        }
+        if let Some(p) = &g.second_peak {
+            s += &format!(
+                "  second peak: {} at {:.3} (g = {:.2}) and {:.3} (g = {:.2}); √3 = 1.732, 2\n",
+                if p.split {
+                    "split, sub-peaks"
+                } else {
+                    "not split, highest bins"
+                },
+                p.near_sqrt3.position,
+                p.near_sqrt3.height,
+                p.near_2.position,
+                p.near_2.height
+            );
+        }
+    }
+    let filled: Vec<_> = r.size_classes.iter().filter(|c| c.count > 0).collect();
+    s += &format!(
+        "size classes (diameter): {} of {} filled; mean diameter {:.4}, packing fraction {:.4}\n",
+        filled.len(),
+        r.size_classes.len(),
+        r.mean_diameter,
+        r.packing_fraction
+    );
+    s += "  diameter             count   volume  contacts/particle  rattlers\n";
+    for c in filled {
+        s += &format!(
+            "  {:>8.4} – {:<8.4}  {:>7}  {:>5.1} %  {:>17}  {:>6.2} %\n",
+            c.lo,
+            c.hi,
+            c.count,
+            100.0 * c.volume_share,
+            c.mean_contacts.map_or("–".into(), |z| format!("{z:.4}")),
+            100.0 * c.rattler_fraction.unwrap_or(0.0)
+        );
+    }
+    for w in &r.wall_profiles {
+        let (first, densest, mean) = (
+            w.fraction[0],
+            w.fraction
+                .iter()
+                .enumerate()
+                .fold((0, f64::NEG_INFINITY), |best, (k, &f)| {
+                    if f > best.1 {
+                        (k, f)
+                    } else {
+                        best
+                    }
+                }),
+            w.fraction.iter().sum::<f64>() / w.fraction.len() as f64,
+        );
+        s += &format!(
+            "wall {:<4} slabs of {:.4}: packing fraction {:.4} at the wall, densest {:.4} at \
+             {:.2} d, mean {:.4} over {:.1} d\n",
+            w.wall,
+            w.slab_width,
+            first,
+            densest.1,
+            w.distance[densest.0],
+            mean,
+            w.fraction.len() as f64 / SLABS_PER_DIAMETER
+        );
+    }
+    for note in &r.notes {
+        s += &format!("skipped: {note}\n");
     }
     s
 }
