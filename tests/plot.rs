@@ -428,6 +428,25 @@ fn sieve_plot_draws_the_packing_and_the_target_curve() {
     assert!(target[1..6] != passing[1..6]);
     // The legend names the curve.
     assert!(text.contains("Fuller q = 0.5, d_max = 16 mm"));
+    // A curve from a TOML table is named by its file and its range, in words (it printed a
+    // Rust debug structure, `Table { sizes: … }`).
+    let table = dir.join("grading.toml");
+    std::fs::write(
+        &table,
+        "[grading]\nkind = \"table\"\nsizes = [2.0, 8.0, 16.0]\npassing = [0.0, 60.0, 100.0]\n",
+    )
+    .unwrap();
+    let text = plot(
+        &[
+            "sieve",
+            path.to_str().unwrap(),
+            "--grading",
+            table.to_str().unwrap(),
+        ],
+        &out,
+    );
+    assert!(text.contains("sieve table 2–16 mm"), "{text}");
+    assert!(!text.contains("Table {"));
 }
 
 #[test]
@@ -514,6 +533,78 @@ fn sizes_plot_bars_are_proportional_to_the_counts() {
         (heights[1] / heights[0] - 5.0 / 3.0).abs() < 0.02,
         "{heights:?}"
     );
+}
+
+#[test]
+fn a_narrow_size_range_gets_a_labelled_linear_size_axis() {
+    // Diameters 1.10 … 1.30: no power of 2 lies in the range, so a log axis (labelled at
+    // powers of 2) would print no size at all.
+    let dir = temp_dir("sizes-narrow");
+    let particles = (0..20)
+        .map(|k| ParticleRecord::Sphere {
+            center: [0.5 + 0.45 * f64::from(k), 5.0, 5.0],
+            radius: 0.55 + 0.005 * f64::from(k % 5 * 5),
+        })
+        .collect();
+    let packing = Packing::new(
+        ContainerRecord::Box {
+            min: [0.0; 3],
+            max: [10.0; 3],
+            periodic: [true; 3],
+        },
+        particles,
+    );
+    let path = write(&dir, "p.json", &packing);
+    let text = plot(&["sizes", path.to_str().unwrap()], &dir.join("s.svg"));
+    let doc = roxmltree::Document::parse(&text).unwrap();
+    let sizes: Vec<f64> = elements(&doc, "text")
+        .iter()
+        .filter_map(|t| t.text()?.trim().parse::<f64>().ok())
+        .filter(|&x| x > 1.0 && x < 1.4)
+        .collect();
+    assert!(sizes.len() >= 3, "size ticks {sizes:?}");
+    assert!(
+        sizes.iter().all(|&x| (1.09..=1.31).contains(&x)),
+        "{sizes:?}"
+    );
+}
+
+#[test]
+fn a_section_of_equal_particles_labels_their_one_size_once() {
+    let dir = temp_dir("section-equal");
+    let particles = (0..4)
+        .map(|k| ParticleRecord::Sphere {
+            center: [1.5 + 2.0 * f64::from(k), 5.0, 5.0],
+            radius: 0.75,
+        })
+        .collect();
+    let packing = Packing::new(
+        ContainerRecord::Box {
+            min: [0.0; 3],
+            max: [10.0; 3],
+            periodic: [false; 3],
+        },
+        particles,
+    );
+    let path = write(&dir, "p.json", &packing);
+    let text = plot(
+        &[
+            "section",
+            path.to_str().unwrap(),
+            "--axis",
+            "z",
+            "--at",
+            "5",
+        ],
+        &dir.join("s.svg"),
+    );
+    let doc = roxmltree::Document::parse(&text).unwrap();
+    let labels: Vec<String> = elements(&doc, "text")
+        .iter()
+        .filter_map(|t| Some(t.text()?.trim().to_string()))
+        .filter(|t| t.contains("1.5"))
+        .collect();
+    assert_eq!(labels, vec!["size 1.5".to_string()]);
 }
 
 /// A small scene with a full-size stage and a gap stage (so the log has Δd).

@@ -281,42 +281,59 @@ fn sizes_svg(packing: &Packing, bins: usize) -> Result<String, PlotError> {
     let (Some(first), Some(last)) = (histogram.first(), histogram.last()) else {
         return Err(PlotError::Input("the packing has no particles".into()));
     };
-    let highest = histogram.iter().map(|b| b.count).max().unwrap_or(1) as f64;
+    let title = format!("Particle sizes: {} particles", packing.particles.len());
+    let (lo, hi) = (first.lo, last.hi);
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, FIGURE).into_drawing_area();
         root.fill(&WHITE)?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(
-                format!("Particle sizes: {} particles", packing.particles.len()),
-                ("sans-serif", TITLE),
-            )
-            .margin(15)
-            .x_label_area_size(45)
-            .y_label_area_size(60)
-            .build_cartesian_2d(
-                (first.lo..last.hi).log_scale().base(2.0),
-                0.0..1.08 * highest,
-            )?;
-        chart
-            .configure_mesh()
-            .disable_x_mesh()
-            .label_style(LABELS)
-            .axis_desc_style(LABELS)
-            .x_label_formatter(&|d| short(*d))
-            .x_desc("sieve diameter (packing units)")
-            .y_desc("particles per bin")
-            .y_label_formatter(&|y| format!("{y:.0}"))
-            .draw()?;
-        chart.draw_series(
-            histogram
-                .iter()
-                .filter(|b| b.count > 0)
-                .map(|b| Rectangle::new([(b.lo, 0.0), (b.hi, b.count as f64)], BARS.filled())),
-        )?;
+        // A log axis labels the powers of 2 only: over less than two octaves it may have
+        // none, so a narrow size range gets a linear axis.
+        if hi < 4.0 * lo {
+            draw_size_bars(&root, lo..hi, &histogram, title)?;
+        } else {
+            draw_size_bars(&root, (lo..hi).log_scale().base(2.0), &histogram, title)?;
+        }
         root.present()?;
     }
     Ok(svg)
+}
+
+/// The histogram's bars on `root`, over the x axis `x` (linear or logarithmic in size).
+fn draw_size_bars<X>(
+    root: &DrawingArea<SVGBackend<'_>, Shift>,
+    x: X,
+    histogram: &[densepack::analysis::SizeBin],
+    title: String,
+) -> Result<(), PlotError>
+where
+    X: plotters::coord::ranged1d::AsRangedCoord<Value = f64>,
+    X::CoordDescType: plotters::coord::ranged1d::ValueFormatter<f64>,
+{
+    let highest = histogram.iter().map(|b| b.count).max().unwrap_or(1) as f64;
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, ("sans-serif", TITLE))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(60)
+        .build_cartesian_2d(x, 0.0..1.08 * highest)?;
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .label_style(LABELS)
+        .axis_desc_style(LABELS)
+        .x_label_formatter(&|d| short(*d))
+        .x_desc("sieve diameter (packing units)")
+        .y_desc("particles per bin")
+        .y_label_formatter(&|y| format!("{y:.0}"))
+        .draw()?;
+    chart.draw_series(
+        histogram
+            .iter()
+            .filter(|b| b.count > 0)
+            .map(|b| Rectangle::new([(b.lo, 0.0), (b.hi, b.count as f64)], BARS.filled())),
+    )?;
+    Ok(())
 }
 
 /// Longest side of a section's plotting area (pixels).
@@ -352,6 +369,7 @@ fn section_svg(packing: &Packing, axis: usize, at: f64) -> Result<String, PlotEr
     let sizes: Vec<f64> = packing.particles.iter().map(sieve_diameter).collect();
     let smallest = sizes.iter().copied().fold(f64::INFINITY, f64::min);
     let largest = sizes.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let one_size = largest <= smallest;
     let largest = if largest > smallest {
         largest
     } else {
@@ -447,7 +465,26 @@ fn section_svg(packing: &Packing, axis: usize, at: f64) -> Result<String, PlotEr
             &("sans-serif", TITLE).into_text_style(&main),
             (margin as i32 + left as i32, 8),
         )?;
-        draw_colour_bar(&colour_bar, smallest, largest, title, bottom)?;
+        if one_size {
+            // Every particle has the same size: one swatch and one label, not a bar whose
+            // ticks all print the same number.
+            let swatch = colour_bar.margin(title, bottom, 10, 0);
+            let (w, h) = swatch.dim_in_pixel();
+            let side = (w.min(h) as i32).min(40);
+            swatch.draw(&Rectangle::new(
+                [(0, 0), (side, side)],
+                ViridisRGB
+                    .get_color_normalized(smallest, smallest, largest)
+                    .filled(),
+            ))?;
+            swatch.draw_text(
+                &format!("size {}", short(smallest)),
+                &LABELS.into_text_style(&swatch),
+                (0, side + 8),
+            )?;
+        } else {
+            draw_colour_bar(&colour_bar, smallest, largest, title, bottom)?;
+        }
         root.present()?;
     }
     Ok(svg)

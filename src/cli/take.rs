@@ -139,7 +139,7 @@ fn spec_of(text: &str) -> Result<(GradingSpec, String), String> {
         .clone()
         .try_into()
         .map_err(|e| format!("{text}: grading: {e}"))?;
-    let name = format!("{text} ({spec:?})");
+    let name = format!("{text} ({})", spec.describe());
     Ok((spec, name))
 }
 
