@@ -7,8 +7,9 @@
 //!
 //! Without a scene it packs 2000 equal spheres in a periodic cube (seeded at φ = 0.3, grown
 //! to φ = 0.6). It writes `OUT_DIR/packing.json` (the packing format of `densepack run`),
-//! `packing.csv` and `packing.vtu` (default `OUT_DIR`: `densepack-example` in the system's
-//! temporary directory, so that a run leaves the checkout clean). Exit 2 for a
+//! `packing.csv`, `packing.vtu` and `packing.container.vtu` (default `OUT_DIR`:
+//! `densepack-example` in the system's temporary directory, so that a run leaves the
+//! checkout clean). Exit 2 for a
 //! scene that cannot be read or is invalid, 1 when the run fails or the packing does not pass
 //! the check (nothing is written then).
 
@@ -103,20 +104,21 @@ fn main() -> ExitCode {
         eprintln!("error: {e}");
         return ExitCode::from(1);
     }
-    for result in [
-        csv::write_csv(&outcome.packing, &table),
-        vtk::write_vtu(&outcome.packing, &glyphs),
-    ] {
-        if let Err(e) = result {
+    let written = csv::write_csv(&outcome.packing, &table)
+        .and_then(|()| vtk::write_vtu(&outcome.packing, &glyphs));
+    let container = match written {
+        Ok(container) => container,
+        Err(e) => {
             eprintln!("error: {e}");
             return ExitCode::from(1);
         }
-    }
+    };
     println!(
-        "wrote {}, {}, {}",
+        "wrote {}, {}, {} and {}",
         json.display(),
         table.display(),
-        glyphs.display()
+        glyphs.display(),
+        container.display()
     );
     ExitCode::SUCCESS
 }

@@ -317,6 +317,9 @@ impl Packing {
                     report.set_item(key, value)?;
                 }
             }
+            Exported::Vtk { container } => {
+                report.set_item("container_path", container)?;
+            }
             Exported::File => {}
         }
         Ok(report.into_any())

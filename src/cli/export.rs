@@ -145,6 +145,11 @@ pub fn run(args: &ExportArgs) -> ExitCode {
             msg
         }
         Exported::File => format!("wrote {}", out.display()),
+        Exported::Vtk { container } => format!(
+            "wrote {} and the container's surface {}",
+            out.display(),
+            container.display()
+        ),
         Exported::Voxels(s) => format!(
             "wrote {}{}: {}x{}x{} voxels of {:.4e} x {:.4e} x {:.4e}; packing fraction exact {:.6}, \
              voxels {:.6} (difference {:+.2e}, first-order bound {:.2e})",

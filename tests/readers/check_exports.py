@@ -8,9 +8,10 @@ Usage: check_exports.py KIND PACKING.json FILE [options]
         here from the packing within the tolerance; the container's faces are physical
         surfaces of the exact areas; on periodic axes the nodes of opposite faces must
         coincide after translation.
-  vtk   FILE.vtu   meshio reads it; points, radii, semi-axes, orientations, half axes and
-                   shape tensors equal the packing's (ellipsoid and cylinder values recomputed
-                   here from the quaternions and half axes).
+  vtk   FILE.vtu   meshio reads it (binary, zlib); points, radii, semi-axes, orientations,
+                   half axes and shape tensors equal the packing's (ellipsoid and cylinder
+                   values recomputed here from the quaternions and half axes); the container's
+                   surface in FILE.container.vtu has the container's bounds and exact area.
   csv   FILE.csv   numpy reads it; rows equal the packing's particles (spheres).
   xyzd  FILE.xyzd  numpy reads the little-endian doubles; rows (x, y, z, d) equal the
                    packing's centres and diameters bit for bit.
@@ -301,6 +302,36 @@ def check_vtk(packing_path, path):
     assert sum(len(b.data) for b in mesh.cells if b.type == "vertex") == len(particles)
     kinds = sorted({q["type"] for q in particles})
     print(f"vtk: ok ({len(particles)} particles: {', '.join(kinds)})")
+    check_vtk_container(p["container"], path[: -len(".vtu")] + ".container.vtu")
+
+
+def check_vtk_container(c, path):
+    """The container's surface beside the particles' .vtu: its bounds are the container's
+    and its polygons' area that of the box, or of the cylinder drawn as a prism over the
+    regular 64-gon inscribed in its circle (exact formulas for both)."""
+    import meshio
+
+    mesh = meshio.read(path)
+    pts = mesh.points
+    area = 0.0
+    for block in mesh.cells:
+        assert block.type in ("quad", "triangle"), block.type
+        for cell in block.data:
+            v = pts[cell]
+            for k in range(1, len(cell) - 1):  # fan triangulation of a planar convex polygon
+                area += 0.5 * float(np.linalg.norm(np.cross(v[k] - v[0], v[k + 1] - v[0])))
+    if c["type"] == "box":
+        lo, hi = np.array(c["min"], dtype=float), np.array(c["max"], dtype=float)
+        assert np.array_equal(pts.min(axis=0), lo) and np.array_equal(pts.max(axis=0), hi)
+        e = hi - lo
+        expected = 2.0 * float(e[0] * e[1] + e[1] * e[2] + e[2] * e[0])
+    else:
+        r, h, k = c["radius"], c["height"], 64
+        expected = k * 2.0 * r * math.sin(math.pi / k) * h + 2.0 * k * 0.5 * r * r * math.sin(2.0 * math.pi / k)
+        z = pts[:, 2]
+        assert abs(z.min() - c["base_center"][2]) < 1e-12 * h and abs(z.max() - c["base_center"][2] - h) < 1e-12 * h
+    assert abs(area / expected - 1.0) < 1e-12, f"container area {area}, expected {expected}"
+    print(f"vtk container: ok ({c['type']}, {sum(len(b.data) for b in mesh.cells)} polygons, area {area:.6g})")
 
 
 def check_csv(packing_path, path):

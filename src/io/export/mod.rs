@@ -3,7 +3,7 @@
 //! | format | file | reader it is checked with (CI) |
 //! |---|---|---|
 //! | `gmsh` | `.geo` script, OpenCASCADE kernel ([`gmsh`]) | Gmsh meshes it in 3D |
-//! | `vtk` | `.vtu` XML unstructured grid of points with per-particle attributes ([`vtk`]) | meshio |
+//! | `vtk` | `.vtu` XML unstructured grid of points with per-particle attributes, binary and zlib-compressed, and the container's surface in `NAME.container.vtu` ([`vtk`]) | meshio |
 //! | `vti` | `.vti` VTK XML image data of the voxel image, binary, zlib-compressed ([`vti`]) | the VTK Python package |
 //! | `abaqus` | `.inp` Abaqus voxel model: C3D8R elements, element sets per phase (and particle), face node sets ([`abaqus`]) | meshio |
 //! | `npy` | `.npy` voxel label image + `FILE.json` sidecar ([`voxel`]) | numpy |
@@ -197,7 +197,12 @@ pub enum Exported {
     Gmsh(gmsh::GmshReport),
     /// A voxel image (`npy` and `raw` with a sidecar, `vti`, `abaqus`).
     Voxels(voxel::VoxelSummary),
-    /// A file with nothing further to report (VTK, CSV, xyzd, LAMMPS).
+    /// The particles' `.vtu` and the container's beside it ([`vtk::container_path`]).
+    Vtk {
+        /// The container's file.
+        container: std::path::PathBuf,
+    },
+    /// A file with nothing further to report (CSV, xyzd, LAMMPS).
     File,
 }
 
@@ -272,7 +277,7 @@ pub fn export(
             path,
         )
         .map(Exported::Gmsh),
-        Format::Vtk => vtk::write_vtu(packing, path).map(|()| Exported::File),
+        Format::Vtk => vtk::write_vtu(packing, path).map(|container| Exported::Vtk { container }),
         Format::Csv => csv::write_csv(packing, path).map(|()| Exported::File),
         Format::Xyzd => xyzd::write_xyzd(packing, path).map(|()| Exported::File),
         Format::Lammps => lammps::write_data(packing, path).map(|()| Exported::File),

@@ -48,8 +48,9 @@ fn vtk_bytes(image: &VoxelImage, shape: [usize; 3]) -> (Vec<u8>, &'static str, &
     }
 }
 
-/// `data` in VTK's zlib-compressed block layout (header then blocks; see the module docs).
-fn compressed(data: &[u8]) -> std::io::Result<Vec<u8>> {
+/// `data` in VTK's zlib-compressed block layout (header then blocks; see the module docs),
+/// shared with the `.vtu` writer ([`super::vtk`]).
+pub(super) fn compressed(data: &[u8]) -> std::io::Result<Vec<u8>> {
     let blocks: Vec<Vec<u8>> = data
         .chunks(BLOCK)
         .map(|chunk| {
