@@ -381,7 +381,7 @@ fn run(
             errln!("error: {e}");
             match e {
                 RunError::StageFailed { .. } => errln!("no packing written"),
-                RunError::Checkpoint(_) => return ExitCode::from(2),
+                RunError::Checkpoint(_) | RunError::Start(_) => return ExitCode::from(2),
                 _ => {}
             }
             ExitCode::from(1)

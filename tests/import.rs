@@ -203,3 +203,135 @@ fn malformed_files_fail_with_exit_code_2_name_the_line_and_the_field_and_write_n
         assert!(!out.exists(), "{file} wrote {}", out.display());
     }
 }
+
+/// A scene that starts from `from` (relative to the scene file) in a walled 3-cube and
+/// opens a gap of 0.2 between the spheres (and 0.1 to the walls).
+fn start_scene(from: &str, size: f64, extra: &str) -> String {
+    format!(
+        "seed = 1\n{extra}[container]\ntype = \"box\"\nsize = [{size}, {size}, {size}]\n\
+         periodic = [false, false, false]\n[particles]\nfrom = \"{from}\"\n\
+         [[stage]]\ngrowth = \"absolute\"\nrate = 0.01\nuntil = {{ gap = 0.2 }}\n"
+    )
+}
+
+/// 27 spheres of radius 0.3 on the cubic lattice of spacing 1 in the 3-cube (gaps 0.4,
+/// 0.2 to the walls), as a foreign CSV of `x,y,z,r`; `overlap` moves the first sphere onto
+/// its neighbour.
+fn lattice_csv(overlap: bool) -> String {
+    let mut text = String::from("x,y,z,r\n");
+    for k in 0..27 {
+        let (i, j, l) = (k % 3, k / 3 % 3, k / 9);
+        let x = if overlap && k == 0 {
+            1.0
+        } else {
+            0.5 + i as f64
+        };
+        text.push_str(&format!("{x},{},{},0.3\n", 0.5 + j as f64, 0.5 + l as f64));
+    }
+    text
+}
+
+#[test]
+fn a_scene_starts_from_an_imported_packing_and_opens_a_gap_that_verifies() {
+    let dir = common::temp_dir("start-from");
+    std::fs::write(dir.join("lattice.csv"), lattice_csv(false)).unwrap();
+    let imported = dir.join("lattice.json");
+    ok(&[
+        "import",
+        dir.join("lattice.csv").to_str().unwrap(),
+        "--from",
+        "csv",
+        "--box",
+        "3,3,3",
+        "--periodic",
+        "false,false,false",
+        "--out",
+        imported.to_str().unwrap(),
+    ]);
+    // The scene names the packing relative to itself; the test runs from the crate root.
+    let scene = dir.join("gap.toml");
+    std::fs::write(&scene, start_scene("lattice.json", 3.0, "")).unwrap();
+    let out = dir.join("gapped.json");
+    ok(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    ok(&["verify", out.to_str().unwrap()]);
+    let p = Packing::read(&out).unwrap();
+    // The particles are the file's, at their true sizes, moved by the run, with the gap the
+    // stage opened claimed and (verify above) kept.
+    assert_eq!(p.particles.len(), 27);
+    assert_eq!(p.min_gap, 0.2);
+    assert_eq!(p.stats.stop_reason, "gap_reached");
+    let start = Packing::read(&imported).unwrap();
+    let mut moved = 0;
+    for (a, b) in p.particles.iter().zip(&start.particles) {
+        let (
+            densepack::io::packing::ParticleRecord::Sphere {
+                center: ca,
+                radius: ra,
+            },
+            densepack::io::packing::ParticleRecord::Sphere {
+                center: cb,
+                radius: rb,
+            },
+        ) = (a, b)
+        else {
+            panic!("spheres");
+        };
+        assert_eq!(ra, rb, "true sizes are written");
+        moved += usize::from(ca != cb);
+    }
+    assert!(moved > 20, "the stage moved the spheres ({moved} moved)");
+}
+
+#[test]
+fn a_bad_start_packing_fails_with_exit_code_2_naming_the_field() {
+    let dir = common::temp_dir("start-from-bad");
+    for (name, overlap) in [("good", false), ("overlap", true)] {
+        std::fs::write(dir.join(format!("{name}.csv")), lattice_csv(overlap)).unwrap();
+        ok(&[
+            "import",
+            dir.join(format!("{name}.csv")).to_str().unwrap(),
+            "--from",
+            "csv",
+            "--box",
+            "3,3,3",
+            "--periodic",
+            "false,false,false",
+            "--out",
+            dir.join(format!("{name}.json")).to_str().unwrap(),
+        ]);
+    }
+    let cases = [
+        (start_scene("overlap.json", 3.0, ""), "overlap"),
+        (start_scene("good.json", 4.0, ""), "container.size"),
+        (start_scene("missing.json", 3.0, ""), "particles.from"),
+        (
+            start_scene("good.json", 3.0, "").replace("[particles]\n", "[particles]\ncount = 27\n"),
+            "particles.count",
+        ),
+        (
+            start_scene("good.json", 3.0, "method = \"rsa\"\n"),
+            "particles.from",
+        ),
+    ];
+    for (text, expected) in cases {
+        let scene = dir.join("bad.toml");
+        std::fs::write(&scene, &text).unwrap();
+        let out = dir.join("out.json");
+        let run = densepack(&[
+            "run",
+            scene.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(2), "{text}\n{stderr}");
+        assert!(stderr.contains(expected), "{expected}: {stderr}");
+        assert!(!out.exists());
+    }
+}

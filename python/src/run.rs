@@ -174,6 +174,7 @@ fn run_on_thread(
             RunError::Unsupported(_) => "unsupported".into(),
             RunError::Verification(_) => "verification_failed".into(),
             RunError::Checkpoint(_) => "checkpoint".into(),
+            RunError::Start(_) => "start_packing".into(),
         },
         stage: match &e {
             RunError::StageFailed { stage, .. } => Some(*stage),

@@ -17,7 +17,13 @@ pub struct Scene {
 impl Scene {
     /// The scene parsed and validated from TOML text (the file's rules and messages).
     pub(crate) fn parse(text: &str) -> PyResult<Self> {
-        AnyScene::from_toml(text)
+        Self::parse_at(text, None)
+    }
+
+    /// A scene from the text of a file in directory `base` (a relative `particles.from` is
+    /// relative to it).
+    fn parse_at(text: &str, base: Option<&std::path::Path>) -> PyResult<Self> {
+        AnyScene::from_toml_at(text, base)
             .map(|scene| Self { scene })
             .map_err(value_error)
     }
@@ -31,22 +37,22 @@ impl Scene {
     /// cannot be read.
     #[staticmethod]
     fn from_toml(source: &Bound<'_, PyAny>) -> PyResult<Self> {
-        let text = if let Ok(s) = source.cast::<PyString>() {
+        let (text, base) = if let Ok(s) = source.cast::<PyString>() {
             let s = s.to_cow()?;
             let s = s.as_ref();
             let path = std::path::Path::new(s);
             if !s.contains('\n') && path.is_file() {
-                read(path)?
+                (read(path)?, path.parent().map(PathBuf::from))
             } else if !s.contains('\n') && !s.contains('=') && s.ends_with(".toml") {
                 return Err(os_error(format!("{s}: no such scene file")));
             } else {
-                s.to_owned()
+                (s.to_owned(), None)
             }
         } else {
             let path: PathBuf = source.extract()?;
-            read(&path)?
+            (read(&path)?, path.parent().map(PathBuf::from))
         };
-        Self::parse(&text)
+        Self::parse_at(&text, base.as_deref())
     }
 
     /// A scene from a dict of the TOML schema (`Scene.to_dict()` gives one): validated

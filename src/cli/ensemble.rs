@@ -43,7 +43,9 @@ pub struct EnsembleArgs {
 /// (if given); the message names the file or the override.
 pub fn load_scene(path: &Path, seed: Option<u64>, set: &[String]) -> Result<AnyScene, String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let scene = AnyScene::from_toml(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+    // A relative `particles.from` is relative to the scene file.
+    let scene = AnyScene::from_toml_at(&text, path.parent())
+        .map_err(|e| format!("{}: {e}", path.display()))?;
     let values = set
         .iter()
         .map(|a| parse_assignment(a).map_err(|e| format!("--set {e}")))

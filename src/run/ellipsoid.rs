@@ -7,7 +7,7 @@ use super::stages::{kernel_config, Placed, StagesDone};
 use super::{dispatch_box, Job, RunError, RunOutcome, SceneContainer, Seeded, ShapeRun};
 use crate::boundary::Boundary;
 use crate::io::packing::ParticleRecord;
-use crate::io::scene::{ContainerSpec, EllipsoidSpec, Scene};
+use crate::io::scene::{ContainerSpec, EllipsoidSpec, Scene, StartPacking};
 use crate::kernel::{Edmd, Progress, StageReport};
 use crate::protocol::rsa::rsa_spheres;
 use crate::queue::EventQueue;
@@ -80,6 +80,8 @@ impl ShapeRun for Ellipsoids {
         scene: &Scene,
         job: &Job,
         true_diameters: &[f64],
+        // Validation refuses `particles.from` with ellipsoids.
+        _start: Option<&StartPacking>,
         boundary: B,
         rng: &mut Xoshiro256PlusPlus,
         started: std::time::Instant,

@@ -36,7 +36,7 @@ use crate::cancel::CancelFlag;
 use crate::io::checkpoint::{CheckpointError, CheckpointFile};
 use crate::io::packing::ContainerRecord;
 use crate::io::packing::Packing;
-use crate::io::scene::{AnyScene, ContainerSpec, Scene};
+use crate::io::scene::{AnyScene, ContainerSpec, Scene, StartPacking};
 use crate::io::units::Units;
 use crate::kernel::{Edmd, Progress, StageReport};
 use crate::protocol::mixture::{relax::RelaxFailure, rsa::RsaError};
@@ -111,6 +111,10 @@ pub enum RunError {
     /// The checkpoint to resume from cannot be used.
     #[error(transparent)]
     Checkpoint(#[from] CheckpointError),
+    /// The packing a scene starts from (`particles.from`) cannot be read or used: its
+    /// spheres overlap by the independent check, or the file changed since validation.
+    #[error("{0}")]
+    Start(String),
 }
 
 impl From<SeedingError> for RunError {
@@ -315,11 +319,13 @@ trait ShapeRun {
         + serde::de::DeserializeOwned;
 
     /// A fresh kernel for the scene's `true_diameters` (drawn first from `rng`; seeding
-    /// draws after them), or the finished packing of a scene that ends with its seeding.
+    /// draws after them) or the spheres of `start` (`particles.from`, at their places), or
+    /// the finished packing of a scene that ends with its seeding.
     fn seed<B: Boundary + SceneContainer, Q: EventQueue>(
         scene: &Scene,
         job: &Job,
         true_diameters: &[f64],
+        start: Option<&StartPacking>,
         boundary: B,
         rng: &mut Xoshiro256PlusPlus,
         started: std::time::Instant,
@@ -359,15 +365,30 @@ fn run_with<R: ShapeRun, B: Boundary + SceneContainer, Q: EventQueue>(
 ) -> Result<RunOutcome, RunError> {
     let started = std::time::Instant::now();
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(scene.seed);
-    // Drawn first from the seed, so a resumed run draws the same sizes again.
-    let true_diameters = scene.true_diameters(&mut rng);
+    // Drawn first from the seed, so a resumed run draws the same sizes again; a scene that
+    // starts from a packing has the file's.
+    let start = scene
+        .start_packing()
+        .map_err(|e| RunError::Start(e.to_string()))?;
+    let true_diameters = match &start {
+        Some(s) => s.radii.iter().map(|r| 2.0 * r).collect(),
+        None => scene.true_diameters(&mut rng),
+    };
     // Ellipsoids are volume-equivalent to spheres of the true diameters.
     let full_size_fraction = sphere_fraction(&true_diameters, boundary.volume());
     let original = boundary.clone();
     // The random generator is consumed by seeding and the initial velocities only, so a
     // checkpoint (taken at a later barrier) needs none of its state.
     let (mut kernel, from, seeding_seconds) = match job.resume {
-        None => match R::seed::<B, Q>(scene, job, &true_diameters, boundary, &mut rng, started)? {
+        None => match R::seed::<B, Q>(
+            scene,
+            job,
+            &true_diameters,
+            start.as_ref(),
+            boundary,
+            &mut rng,
+            started,
+        )? {
             Seeded::Kernel(kernel, seconds) => (kernel, StagesFrom::start(), seconds),
             Seeded::Finished(outcome) => return Ok(outcome),
         },

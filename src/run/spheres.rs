@@ -5,8 +5,9 @@
 use super::stages::{finish, gap_opened, kernel_config, Placed, StagesDone};
 use super::{Job, RunError, SceneContainer, Seeded, ShapeRun};
 use crate::boundary::Boundary;
+use crate::io::packing::Packing;
 use crate::io::packing::PackingStats;
-use crate::io::scene::{Method, Scene};
+use crate::io::scene::{Method, Scene, StartPacking};
 use crate::kernel::Edmd;
 use crate::protocol::rsa::rsa_spheres;
 use crate::queue::EventQueue;
@@ -23,10 +24,17 @@ impl ShapeRun for Spheres {
         scene: &Scene,
         job: &Job,
         true_diameters: &[f64],
+        start: Option<&StartPacking>,
         boundary: B,
         rng: &mut Xoshiro256PlusPlus,
         started: std::time::Instant,
     ) -> Result<Seeded<Sphere, B, Q>, RunError> {
+        if let Some(start) = start {
+            let centres = start_centres(scene, start, &boundary)?;
+            let shapes = start.radii.iter().map(|&r| Sphere::new(r)).collect();
+            let kernel = Edmd::new(centres, shapes, boundary, kernel_config(scene), rng);
+            return Ok(Seeded::Kernel(kernel, started.elapsed().as_secs_f64()));
+        }
         let scale = scene.seed_scale(true_diameters);
         let radii: Vec<f64> = true_diameters.iter().map(|d| 0.5 * scale * d).collect();
         let (rsa_gap, rsa_wall_gap) = match scene.method {
@@ -128,4 +136,43 @@ impl ShapeRun for Spheres {
         };
         (placed, extra)
     }
+}
+
+/// The centres of the packing a scene starts from, once the independent check
+/// ([`crate::verify`]) has found its spheres apart and inside the container: the kernel
+/// predicts from non-overlapping pairs only, so an overlap within the check's rounding
+/// tolerance is refused as well. The message names the file and the first violation.
+fn start_centres<B: Boundary + SceneContainer>(
+    scene: &Scene,
+    start: &StartPacking,
+    boundary: &B,
+) -> Result<Vec<Vec3>, RunError> {
+    let from = scene.particles.from.as_deref().unwrap_or("");
+    let particles = start
+        .centres
+        .iter()
+        .zip(&start.radii)
+        .map(|(c, &radius)| crate::io::packing::ParticleRecord::Sphere { center: *c, radius })
+        .collect();
+    let check = crate::verify::verify(&Packing::new(boundary.record(), particles));
+    let refuse = |what: String| {
+        RunError::Start(format!(
+            "particles.from: {from}: {what}; a run starts from spheres that neither overlap \
+             nor cross a wall (`densepack verify` lists them; shrink the radii to start)"
+        ))
+    };
+    if check.violation_count > 0 {
+        return Err(refuse(format!(
+            "{} violations, the first: {}",
+            check.violation_count,
+            check.violations.first().map_or("", String::as_str)
+        )));
+    }
+    if let Some(g) = check.min_pair_gap.filter(|&g| g < 0.0) {
+        return Err(refuse(format!("two spheres overlap by {:.3e}", -g)));
+    }
+    if let Some(g) = check.min_wall_gap.filter(|&g| g < 0.0) {
+        return Err(refuse(format!("a sphere crosses a wall by {:.3e}", -g)));
+    }
+    Ok(start.centres.iter().map(|&c| Vec3::from(c)).collect())
 }

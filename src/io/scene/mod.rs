@@ -289,7 +289,24 @@ pub struct ParticlesSpec {
     /// Ellipsoids instead of spheres (the diameters are volume-equivalent).
     #[serde(default)]
     pub ellipsoid: Option<EllipsoidSpec>,
+    /// A packing JSON file (`densepack run`, `densepack import`) whose spheres the stages
+    /// start from, at their sizes and places as written, instead of seeding ([`StartPacking`]).
+    /// A relative path is relative to the scene file ([`Scene::from_toml_at`]).
+    pub from: Option<String>,
 }
+
+/// The spheres a scene starts from (`particles.from`), placed relative to the scene
+/// container's origin (a box's lower corner, a cylinder's base centre).
+#[derive(Clone, Debug, PartialEq)]
+pub struct StartPacking {
+    /// Centres relative to the container's origin.
+    pub centres: Vec<[f64; 3]>,
+    /// Radii as written: the true sizes.
+    pub radii: Vec<f64>,
+}
+
+/// Relative tolerance of the container match between a scene and the packing it starts from.
+const START_CONTAINER_TOLERANCE: f64 = 1e-9;
 
 /// Ellipsoid shapes of a scene (paper 004): semi-axes `a`, `b = a/R1`, `c = a/R2` along the
 /// body x, y, z axes, scaled so that `a·b·c = (d/2)³` for the particle's diameter `d`.
@@ -659,12 +676,107 @@ fn locate_unknown_key(text: &str, error: toml::de::Error) -> String {
 pub const KEPLER_FRACTION: f64 = 0.740_480_489_693_061;
 
 impl Scene {
-    /// Parses a scene from TOML text and validates it.
+    /// Parses a scene from TOML text and validates it; a relative `particles.from` is
+    /// relative to the working directory.
     pub fn from_toml(text: &str) -> Result<Self, SceneError> {
-        let scene: Scene =
+        Self::from_toml_at(text, None)
+    }
+
+    /// Parses a scene from the TOML text of a file in directory `base` and validates it:
+    /// a relative `particles.from` is made relative to `base` (written into the scene, so
+    /// that provenance and checkpoints name the file read).
+    pub fn from_toml_at(text: &str, base: Option<&std::path::Path>) -> Result<Self, SceneError> {
+        let mut scene: Scene =
             toml::from_str(text).map_err(|e| SceneError::Parse(locate_unknown_key(text, e)))?;
+        if let (Some(base), Some(from)) = (base, &scene.particles.from) {
+            if std::path::Path::new(from).is_relative() {
+                scene.particles.from = Some(base.join(from).to_string_lossy().into_owned());
+            }
+        }
         scene.validate()?;
         Ok(scene)
+    }
+
+    /// The spheres of `particles.from`, read and checked against the scene: a sphere
+    /// packing in the scene's container (same kind, periodic axes and size to 10⁻⁹
+    /// relative; its origin may differ), centres moved to the scene container's frame.
+    /// `None` without `from`. Whether the spheres overlap is the run's check (the
+    /// independent one of `crate::verify`), not the schema's.
+    pub fn start_packing(&self) -> Result<Option<StartPacking>, SceneError> {
+        use crate::io::packing::{ContainerRecord, Packing, ParticleRecord};
+        let Some(from) = &self.particles.from else {
+            return Ok(None);
+        };
+        let bad = |message: String| invalid("particles.from", format!("{from}: {message}"));
+        let packing = Packing::read(std::path::Path::new(from)).map_err(|e| bad(e.to_string()))?;
+        let close =
+            |a: f64, b: f64| (a - b).abs() <= START_CONTAINER_TOLERANCE * a.abs().max(b.abs());
+        let origin = match (&self.container, &packing.container) {
+            (
+                ContainerSpec::Box { size, periodic, .. },
+                ContainerRecord::Box {
+                    min,
+                    max,
+                    periodic: file_periodic,
+                },
+            ) => {
+                if periodic != file_periodic {
+                    return Err(bad(format!(
+                        "its box has periodic = {file_periodic:?}, the scene's container \
+                         {periodic:?}"
+                    )));
+                }
+                for k in 0..3 {
+                    if !close(size[k], max[k] - min[k]) {
+                        return Err(bad(format!(
+                            "its box is {:?} long, the scene's container.size is {size:?}",
+                            [max[0] - min[0], max[1] - min[1], max[2] - min[2]]
+                        )));
+                    }
+                }
+                *min
+            }
+            (
+                ContainerSpec::Cylinder { radius, height, .. },
+                ContainerRecord::Cylinder {
+                    base_center,
+                    radius: r,
+                    height: h,
+                },
+            ) => {
+                if !close(*radius, *r) || !close(*height, *h) {
+                    return Err(bad(format!(
+                        "its cylinder has radius {r} and height {h}, the scene's {radius} and \
+                         {height}"
+                    )));
+                }
+                *base_center
+            }
+            _ => {
+                return Err(bad(
+                    "its container is not of the scene's kind (box or cylinder)".into(),
+                ))
+            }
+        };
+        let mut start = StartPacking {
+            centres: Vec::with_capacity(packing.particles.len()),
+            radii: Vec::with_capacity(packing.particles.len()),
+        };
+        for (i, p) in packing.particles.iter().enumerate() {
+            let ParticleRecord::Sphere { center, radius } = p else {
+                return Err(bad(format!(
+                    "particle {i} is not a sphere (a scene starts from spheres only)"
+                )));
+            };
+            start
+                .centres
+                .push(std::array::from_fn(|k| center[k] - origin[k]));
+            start.radii.push(*radius);
+        }
+        if start.radii.is_empty() {
+            return Err(bad("it has no particles".into()));
+        }
+        Ok(Some(start))
     }
 
     /// The take phase of a graded scene (`None` for explicit diameters).
@@ -713,6 +825,10 @@ impl Scene {
     /// (largest first). The scene must be valid.
     pub fn true_diameters<R: Rng + ?Sized>(&self, rng: &mut R) -> Vec<f64> {
         let p = &self.particles;
+        debug_assert!(
+            p.from.is_none(),
+            "the sizes of `from` are the start packing's"
+        );
         if let Some(take) = self.take_phase() {
             return take.expect("a validated scene").sample(rng);
         }
@@ -748,10 +864,11 @@ impl Scene {
     }
 
     /// Number of particles as written (saturating; validation bounds it by
-    /// [`MAX_PARTICLES`]), or `None` for a grading curve, whose count is drawn.
+    /// [`MAX_PARTICLES`]), or `None` for a grading curve, whose count is drawn, and for a
+    /// scene that starts from a packing file (`particles.from`).
     pub fn particle_count(&self) -> Option<usize> {
         let p = &self.particles;
-        if p.grading.is_some() {
+        if p.grading.is_some() || p.from.is_some() {
             return None;
         }
         Some(match &p.components {
@@ -766,6 +883,12 @@ impl Scene {
     pub fn memory_estimate(&self) -> (u64, String) {
         let count = match self.particle_count() {
             Some(n) => n as f64,
+            // A scene that starts from a packing has the file's count (read again here).
+            None if self.particles.from.is_some() => self
+                .start_packing()
+                .ok()
+                .flatten()
+                .map_or(0.0, |s| s.radii.len() as f64),
             None => self.take_phase().and_then(Result::ok).map_or(0.0, |t| {
                 let s = t.summary();
                 s.expected_count + 4.0 * s.count_std_dev
@@ -843,12 +966,20 @@ impl AnyScene {
 
     /// Parses and validates either kind of scene.
     pub fn from_toml(text: &str) -> Result<Self, SceneError> {
+        Self::from_toml_at(text, None)
+    }
+
+    /// Parses and validates either kind of scene from the text of a file in directory
+    /// `base` (see [`Scene::from_toml_at`]).
+    pub fn from_toml_at(text: &str, base: Option<&std::path::Path>) -> Result<Self, SceneError> {
         let table: toml::Table =
             toml::from_str(text).map_err(|e| SceneError::Parse(e.to_string()))?;
         if table.contains_key("mixture") {
             Ok(AnyScene::Mixture(Box::new(MixtureScene::from_toml(text)?)))
         } else {
-            Ok(AnyScene::Spheres(Box::new(Scene::from_toml(text)?)))
+            Ok(AnyScene::Spheres(Box::new(Scene::from_toml_at(
+                text, base,
+            )?)))
         }
     }
 }

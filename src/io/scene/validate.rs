@@ -236,6 +236,9 @@ impl Scene {
     /// grading curve).
     fn validate_particles(&self) -> Result<NominalSizes, SceneError> {
         let p = &self.particles;
+        if p.from.is_some() {
+            return self.validate_start();
+        }
         if p.rsa_max_failures == 0 {
             return Err(invalid("particles.rsa_max_failures", "= 0 must be ≥ 1"));
         }
@@ -619,6 +622,65 @@ struct NominalSizes {
     d_min: f64,
     d_max: f64,
     volume: f64,
+}
+
+impl Scene {
+    /// A scene that starts from a packing (`particles.from`): nothing else describes the
+    /// particles, the stages are EDMD's, and the file is a sphere packing in the scene's
+    /// container ([`Scene::start_packing`]); its sizes are the nominal ones.
+    fn validate_start(&self) -> Result<NominalSizes, SceneError> {
+        let p = &self.particles;
+        for (given, field) in [
+            (p.count.is_some(), "particles.count"),
+            (p.diameter.is_some(), "particles.diameter"),
+            (p.components.is_some(), "particles.components"),
+            (p.grading.is_some(), "particles.grading"),
+            (p.mixture_fraction.is_some(), "particles.mixture_fraction"),
+            (
+                p.effective_fraction.is_some(),
+                "particles.effective_fraction",
+            ),
+            (p.d_min.is_some(), "particles.d_min"),
+            (p.packing_fraction.is_some(), "particles.packing_fraction"),
+            (p.seed_scale.is_some(), "particles.seed_scale"),
+            (p.gap.is_some(), "particles.gap"),
+            (p.wall_gap.is_some(), "particles.wall_gap"),
+            (p.ellipsoid.is_some(), "particles.ellipsoid"),
+        ] {
+            if given {
+                return Err(invalid(
+                    field,
+                    "does not apply with `particles.from`: the particles are the file's, at \
+                     their sizes and places",
+                ));
+            }
+        }
+        if self.method != Method::Edmd {
+            return Err(invalid(
+                "particles.from",
+                "needs method = \"edmd\" (a packing to start from is not seeded)",
+            ));
+        }
+        let start = self.start_packing()?.expect("`from` is given");
+        let diameters: Vec<f64> = start.radii.iter().map(|r| 2.0 * r).collect();
+        for (i, &d) in diameters.iter().enumerate() {
+            if !(d.is_finite() && d > 0.0) {
+                return Err(invalid(
+                    "particles.from",
+                    format!(
+                        "particle {i} has radius {}: must be finite and > 0",
+                        0.5 * d
+                    ),
+                ));
+            }
+        }
+        Ok(NominalSizes {
+            count: diameters.len() as f64,
+            d_min: diameters.iter().copied().fold(f64::INFINITY, f64::min),
+            d_max: diameters.iter().copied().fold(0.0, f64::max),
+            volume: sphere_volume(&diameters),
+        })
+    }
 }
 
 impl Scene {
