@@ -607,6 +607,42 @@ fn a_section_of_equal_particles_labels_their_one_size_once() {
     assert_eq!(labels, vec!["size 1.5".to_string()]);
 }
 
+#[test]
+fn gr_plot_draws_one_point_per_bin_and_marks_the_contact_and_second_peak_distances() {
+    let dir = temp_dir("gr");
+    let path = write(&dir, "p.json", &spheres(200, true, 7));
+    let text = plot(
+        &[
+            "gr",
+            path.to_str().unwrap(),
+            "--bins",
+            "40",
+            "--range",
+            "2.0",
+        ],
+        &dir.join("g.svg"),
+    );
+    let doc = roxmltree::Document::parse(&text).unwrap();
+    let line = series(&doc, "#C0392B");
+    assert_eq!(
+        line.len(),
+        40,
+        "one point per bin (half the box, 5, allows 2.08)"
+    );
+    assert!(line.windows(2).all(|w| w[1].0 > w[0].0));
+    // Dashed marks at 1, √3 and 2: three vertical dashed lines of 4-pixel dashes.
+    let dashes = elements(&doc, "polyline")
+        .into_iter()
+        .filter(|p| {
+            let pts = points(p);
+            p.attribute("opacity") == Some("0.4") && pts.len() == 2 && pts[0].0 == pts[1].0
+        })
+        .map(|p| points(&p)[0].0.round() as i64)
+        .collect::<std::collections::BTreeSet<_>>()
+        .len();
+    assert_eq!(dashes, 3, "{text}");
+}
+
 /// A small scene with a full-size stage and a gap stage (so the log has Δd).
 const GAP_SCENE: &str = r#"
 seed = 3
@@ -793,6 +829,9 @@ fn bad_input_exits_2_and_writes_no_figure() {
             "--d-min",
         ),
         (vec!["sizes", good, "--bins", "0"], "--bins"),
+        (vec!["gr", good, "--bins", "0"], "--bins"),
+        (vec!["gr", good, "--range=-1"], "--range"),
+        (vec!["gr", cylinders.to_str().unwrap()], "not a sphere"),
         (
             vec!["section", good, "--at", "10.5"],
             "outside the container",

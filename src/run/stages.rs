@@ -501,12 +501,13 @@ mod tests {
 
     #[test]
     fn a_gap_stage_ends_when_every_radius_has_gained_half_the_gap() {
-        // Δd = 1 at the absolute rate 0.01: each radius gains 0.5, which takes 50 time units;
-        // a wall gap of 0.25 is λ = 1/4 of Δd, so the walls see half of each grain's growth.
+        // Δd = 1 at the absolute rate 0.01: each radius gains 0.5, which takes 50 time units
+        // (and the margin 10⁻⁹ of them more); a wall gap of 0.25 is λ = 1/4 of Δd, so the
+        // walls see half of each grain's growth.
         let s = spec("growth = \"absolute\"\nrate = 0.01\nuntil = { gap = 1.0 }\nwall_gap = 0.25");
         let stage = kernel_stage(&s, 0.3);
         assert_eq!(stage.growth, Growth::Absolute(0.01));
-        assert_eq!(stage.until.time, Some(50.0));
+        assert_eq!(stage.until.time, Some(50.0 * (1.0 + GAP_TIME_MARGIN)));
         assert_eq!(stage.wall_growth, 0.5);
         assert_eq!(gap_opened(0.5), 1.0);
         // A time goal shorter than the gap's wins.
