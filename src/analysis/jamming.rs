@@ -480,36 +480,79 @@ fn walls_of(packing: &Packing, i: usize, body: &Body, reach: f64, out: &mut Vec<
 /// contacts: fewer than [`RATTLER_BELOW`] contacts, or (spheres, `sphere[i]`) contact
 /// directions in a closed hemisphere (see the module docs).
 fn backbone(n: usize, contacts: &[Contact], h: f64, sphere: &[bool]) -> (Vec<bool>, Vec<Contact>) {
-    let mut kept: Vec<Contact> = contacts.iter().copied().filter(|c| c.gap < h).collect();
-    let mut alive = vec![true; n];
-    loop {
-        // Directions from each particle to its contacts.
-        let mut directions: Vec<Vec<[f64; 3]>> = vec![Vec::new(); n];
-        for c in &kept {
-            let u = c.normal;
-            let minus = [-u[0], -u[1], -u[2]];
-            match c.j {
-                Some(j) => {
-                    directions[c.i as usize].push(u);
-                    directions[j as usize].push(minus);
-                }
-                None => directions[c.i as usize].push(minus),
-            }
+    let kept: Vec<Contact> = contacts.iter().copied().filter(|c| c.gap < h).collect();
+    // Each particle's contacts (indices into `kept`), in compressed rows.
+    let mut start = vec![0usize; n + 1];
+    for c in &kept {
+        start[c.i as usize + 1] += 1;
+        if let Some(j) = c.j {
+            start[j as usize + 1] += 1;
         }
-        let mut removed = false;
-        for i in 0..n {
-            let d = &directions[i];
-            let free = d.len() < RATTLER_BELOW as usize || (sphere[i] && in_closed_hemisphere(d));
-            if alive[i] && free {
-                alive[i] = false;
-                removed = true;
-            }
-        }
-        if !removed {
-            return (alive, kept);
-        }
-        kept.retain(|c| alive[c.i as usize] && c.j.is_none_or(|j| alive[j as usize]));
     }
+    for i in 0..n {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut rows = vec![0u32; start[n]];
+    for (k, c) in kept.iter().enumerate() {
+        for end in [Some(c.i), c.j].into_iter().flatten() {
+            rows[fill[end as usize]] = k as u32;
+            fill[end as usize] += 1;
+        }
+    }
+    // Removal is monotone (fewer contacts never make a particle less free), so the
+    // particles left do not depend on the order of removal: a work list re-tests only the
+    // partners of a removed particle, not every particle each round.
+    let mut alive = vec![true; n];
+    let mut contact_alive = vec![true; kept.len()];
+    let mut queued = vec![true; n];
+    let mut work: std::collections::VecDeque<usize> = (0..n).collect();
+    let mut directions: Vec<[f64; 3]> = Vec::new();
+    while let Some(i) = work.pop_front() {
+        queued[i] = false;
+        directions.clear();
+        for &k in &rows[start[i]..start[i + 1]] {
+            if !contact_alive[k as usize] {
+                continue;
+            }
+            let c = &kept[k as usize];
+            let u = c.normal;
+            // From the particle towards the partner (or the wall).
+            let towards = if c.j.is_some() && c.i as usize == i {
+                u
+            } else {
+                [-u[0], -u[1], -u[2]]
+            };
+            directions.push(towards);
+        }
+        let free = directions.len() < RATTLER_BELOW as usize
+            || (sphere[i] && in_closed_hemisphere(&directions));
+        if !free {
+            continue;
+        }
+        alive[i] = false;
+        for &k in &rows[start[i]..start[i + 1]] {
+            let k = k as usize;
+            if !contact_alive[k] {
+                continue;
+            }
+            contact_alive[k] = false;
+            let c = &kept[k];
+            let partner = if c.i as usize == i { c.j } else { Some(c.i) };
+            if let Some(o) = partner.map(|o| o as usize) {
+                if alive[o] && !queued[o] {
+                    queued[o] = true;
+                    work.push_back(o);
+                }
+            }
+        }
+    }
+    let kept = kept
+        .into_iter()
+        .zip(contact_alive)
+        .filter_map(|(c, a)| a.then_some(c))
+        .collect();
+    (alive, kept)
 }
 
 /// Whether the unit vectors `d` lie in a closed hemisphere: some `w ≠ 0` has `w·d_k ≤ 0`

@@ -15,7 +15,10 @@
 //!   range is cut to half the box (`s_max · 2 r_max ≤ L/2`) so that the minimum image is the
 //!   only image in reach. A jammed monodisperse packing has a delta peak at contact (`s = 1`)
 //!   and a split second peak with sub-peaks at `√3` and `2` (Donev, Torquato & Stillinger,
-//!   PRE 71, 011105, 2005).
+//!   PRE 71, 011105, 2005). Above [`MAX_GR_REFERENCES`] candidates every k-th is a reference
+//!   (a deterministic stride, `k = ⌈N_ref / MAX_GR_REFERENCES⌉`): the pairs around 10⁵
+//!   references fill each bin of a dense packing with millions of counts, and the sum costs
+//!   a tenth at 10⁶ particles; `ρ` stays the density of all the candidates.
 //! - **Size classes**: the particles binned by diameter as in [`super::size_histogram`], with
 //!   each class's count, share of the particle volume, and mean contact number and rattler
 //!   fraction at the jamming report's cut-off (from its contact list).
@@ -33,6 +36,9 @@ use super::{sieve_diameter, size_classes, CellGrid};
 use crate::io::export::{container_bounds, packing_fraction, particle_volume, periodic_axes};
 use crate::io::packing::{ContainerRecord, Packing, ParticleRecord};
 use std::f64::consts::PI;
+
+/// Most reference particles of g(r) (see the module docs).
+pub const MAX_GR_REFERENCES: usize = 100_000;
 
 /// Default number of g(r) bins: width 0.02 over `s ∈ [0, 3)`.
 pub const DEFAULT_GR_BINS: usize = 150;
@@ -95,7 +101,7 @@ pub struct RadialDistribution {
     pub centres: Vec<f64>,
     /// `g` per bin (dimensionless).
     pub g: Vec<f64>,
-    /// Number of reference particles.
+    /// Number of reference particles (at most [`MAX_GR_REFERENCES`]).
     pub references: usize,
     /// Smallest distance of a reference centre from every wall, in the packing's unit (0 in
     /// a periodic box: every particle is a reference).
@@ -307,8 +313,8 @@ pub fn radial_distribution(
             )
         }
     };
-    let references: Vec<usize> = (0..n).filter(|&i| inside(&centers[i])).collect();
-    let n_ref = references.len();
+    let candidates: Vec<usize> = (0..n).filter(|&i| inside(&centers[i])).collect();
+    let n_ref = candidates.len();
     if n_ref < 2 || volume <= 0.0 || bins_used == 0 {
         return Err(StructureError::NoReferences(format!(
             "{n_ref} particle(s) have their centres at least {margin:.4} (range × the largest \
@@ -317,6 +323,8 @@ pub fn radial_distribution(
         )));
     }
     let density = (n_ref - 1) as f64 / volume;
+    let stride = n_ref.div_ceil(MAX_GR_REFERENCES);
+    let references: Vec<usize> = candidates.into_iter().step_by(stride).collect();
     // Σ_j r_j^k, k = 1, 2, 3, for the mean of (r_i + r_j)³ over j ≠ i.
     let moment = |k: i32| radii.iter().map(|r| r.powi(k)).sum::<f64>();
     let (s1, s2, s3) = (moment(1), moment(2), moment(3));
@@ -373,7 +381,7 @@ pub fn radial_distribution(
         range_cut: bins_used < bins,
         centres,
         g,
-        references: n_ref,
+        references: references.len(),
         wall_margin: margin,
         first_peak,
         second_peak,
