@@ -841,10 +841,6 @@ fn bad_input_exits_2_and_writes_no_figure() {
             "outside the container",
         ),
         (
-            vec!["section", cylinders.to_str().unwrap(), "--at", "5"],
-            "cylinder",
-        ),
-        (
             vec!["convergence", not_a_log.to_str().unwrap()],
             "stage_time",
         ),
@@ -854,6 +850,17 @@ fn bad_input_exits_2_and_writes_no_figure() {
         ),
         (vec!["convergence", "missing.jsonl"], "missing.jsonl"),
     ];
+    // Cylinders are drawn in sections (as polygons), not refused.
+    let section = plot(
+        &["section", cylinders.to_str().unwrap(), "--at", "5"],
+        &dir.join("cyl.svg"),
+    );
+    let doc = roxmltree::Document::parse(&section).unwrap();
+    let filled = elements(&doc, "polygon")
+        .into_iter()
+        .filter(|p| p.attribute("fill").is_some_and(|f| f != "none"))
+        .count();
+    assert_eq!(filled, 1, "one cylinder cut: {section}");
     for (args, message) in cases {
         let out = dir.join("out.svg");
         let mut all = vec!["plot"];

@@ -55,8 +55,9 @@ enum PlotKind {
         #[arg(long)]
         out: PathBuf,
     },
-    /// Section of the packing by the plane AXIS = AT: cut particles as discs (spheres) or
-    /// ellipses (ellipsoids) coloured by size, periodic images included, container outline.
+    /// Section of the packing by the plane AXIS = AT: cut particles as discs (spheres),
+    /// ellipses (ellipsoids) or polygons (cylinders) coloured by size, periodic images
+    /// included, container outline.
     Section {
         /// Packing file (JSON).
         packing: PathBuf,
@@ -497,6 +498,12 @@ fn section_svg(packing: &Packing, axis: usize, at: f64) -> Result<String, PlotEr
                     chart.draw_series(std::iter::once(Circle::new(
                         (center[0], center[1]),
                         (radius * pixels_per_unit).round() as u32,
+                        style,
+                    )))?;
+                }
+                SectionCut::Polygon { vertices, .. } => {
+                    chart.draw_series(std::iter::once(Polygon::new(
+                        vertices.iter().map(|p| (p[0], p[1])).collect::<Vec<_>>(),
                         style,
                     )))?;
                 }
