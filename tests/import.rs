@@ -231,14 +231,15 @@ fn lattice_csv(overlap: bool) -> String {
     text
 }
 
-#[test]
-fn a_scene_starts_from_an_imported_packing_and_opens_a_gap_that_verifies() {
-    let dir = common::temp_dir("start-from");
-    std::fs::write(dir.join("lattice.csv"), lattice_csv(false)).unwrap();
-    let imported = dir.join("lattice.json");
+/// Writes the lattice as `DIR/NAME.csv` and imports it into `DIR/NAME.json` (the walled
+/// 3-cube), which it returns.
+fn import_lattice(dir: &Path, name: &str, overlap: bool) -> PathBuf {
+    let csv = dir.join(format!("{name}.csv"));
+    let json = dir.join(format!("{name}.json"));
+    std::fs::write(&csv, lattice_csv(overlap)).unwrap();
     ok(&[
         "import",
-        dir.join("lattice.csv").to_str().unwrap(),
+        csv.to_str().unwrap(),
         "--from",
         "csv",
         "--box",
@@ -246,8 +247,15 @@ fn a_scene_starts_from_an_imported_packing_and_opens_a_gap_that_verifies() {
         "--periodic",
         "false,false,false",
         "--out",
-        imported.to_str().unwrap(),
+        json.to_str().unwrap(),
     ]);
+    json
+}
+
+#[test]
+fn a_scene_starts_from_an_imported_packing_and_opens_a_gap_that_verifies() {
+    let dir = common::temp_dir("start-from");
+    let imported = import_lattice(&dir, "lattice", false);
     // The scene names the packing relative to itself; the test runs from the crate root.
     let scene = dir.join("gap.toml");
     std::fs::write(&scene, start_scene("lattice.json", 3.0, "")).unwrap();
@@ -292,19 +300,7 @@ fn a_scene_starts_from_an_imported_packing_and_opens_a_gap_that_verifies() {
 fn a_bad_start_packing_fails_with_exit_code_2_naming_the_field() {
     let dir = common::temp_dir("start-from-bad");
     for (name, overlap) in [("good", false), ("overlap", true)] {
-        std::fs::write(dir.join(format!("{name}.csv")), lattice_csv(overlap)).unwrap();
-        ok(&[
-            "import",
-            dir.join(format!("{name}.csv")).to_str().unwrap(),
-            "--from",
-            "csv",
-            "--box",
-            "3,3,3",
-            "--periodic",
-            "false,false,false",
-            "--out",
-            dir.join(format!("{name}.json")).to_str().unwrap(),
-        ]);
+        import_lattice(&dir, name, overlap);
     }
     let cases = [
         (start_scene("overlap.json", 3.0, ""), "overlap"),

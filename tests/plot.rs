@@ -17,6 +17,18 @@ fn uniform(state: &mut u64) -> f64 {
     (*state >> 11) as f64 / (1u64 << 53) as f64
 }
 
+/// `particles` in the box `[0, 10]³`, periodic on every axis or walled on every axis.
+fn in_box(particles: Vec<ParticleRecord>, periodic: bool) -> Packing {
+    Packing::new(
+        ContainerRecord::Box {
+            min: [0.0; 3],
+            max: [10.0; 3],
+            periodic: [periodic; 3],
+        },
+        particles,
+    )
+}
+
 /// `count` spheres with radii in [0.3, 1.2) at random centres in the box `[0, 10]³` (kept a
 /// radius away from walled faces). Overlaps do not matter to a plot.
 fn spheres(count: usize, periodic: bool, seed: u64) -> Packing {
@@ -29,14 +41,7 @@ fn spheres(count: usize, periodic: bool, seed: u64) -> Packing {
             ParticleRecord::Sphere { center, radius }
         })
         .collect();
-    Packing::new(
-        ContainerRecord::Box {
-            min: [0.0; 3],
-            max: [10.0; 3],
-            periodic: [periodic; 3],
-        },
-        particles,
-    )
+    in_box(particles, periodic)
 }
 
 fn write(dir: &Path, name: &str, packing: &Packing) -> PathBuf {
@@ -262,17 +267,13 @@ fn ellipsoid_sections_lie_on_the_ellipsoid_surface() {
         let q = quaternion(axis, 6.0 * uniform(&mut s));
         let normal = case % 3;
         let at = center[normal] + 1.5 * (uniform(&mut s) - 0.5);
-        let packing = Packing::new(
-            ContainerRecord::Box {
-                min: [0.0; 3],
-                max: [10.0; 3],
-                periodic: [false; 3],
-            },
+        let packing = in_box(
             vec![ParticleRecord::Ellipsoid {
                 center,
                 semi_axes,
                 orientation: q,
             }],
+            false,
         );
         let cuts = section(&packing, normal, at).unwrap().cuts;
         let [SectionCut::Ellipse {
@@ -511,14 +512,7 @@ fn sizes_plot_bars_are_proportional_to_the_counts() {
     let mut particles: Vec<ParticleRecord> =
         (0..3).map(|k| sphere(1.0 + f64::from(k), 0.5)).collect();
     particles.extend((0..5).map(|k| sphere(1.0 + f64::from(k), 1.0)));
-    let packing = Packing::new(
-        ContainerRecord::Box {
-            min: [0.0; 3],
-            max: [10.0; 3],
-            periodic: [true; 3],
-        },
-        particles,
-    );
+    let packing = in_box(particles, true);
     let path = write(&dir, "p.json", &packing);
     let text = plot(&["sizes", path.to_str().unwrap()], &dir.join("s.svg"));
     let doc = roxmltree::Document::parse(&text).unwrap();
@@ -546,14 +540,7 @@ fn a_narrow_size_range_gets_a_labelled_linear_size_axis() {
             radius: 0.55 + 0.005 * f64::from(k % 5 * 5),
         })
         .collect();
-    let packing = Packing::new(
-        ContainerRecord::Box {
-            min: [0.0; 3],
-            max: [10.0; 3],
-            periodic: [true; 3],
-        },
-        particles,
-    );
+    let packing = in_box(particles, true);
     let path = write(&dir, "p.json", &packing);
     let text = plot(&["sizes", path.to_str().unwrap()], &dir.join("s.svg"));
     let doc = roxmltree::Document::parse(&text).unwrap();
@@ -578,14 +565,7 @@ fn a_section_of_equal_particles_labels_their_one_size_once() {
             radius: 0.75,
         })
         .collect();
-    let packing = Packing::new(
-        ContainerRecord::Box {
-            min: [0.0; 3],
-            max: [10.0; 3],
-            periodic: [false; 3],
-        },
-        particles,
-    );
+    let packing = in_box(particles, false);
     let path = write(&dir, "p.json", &packing);
     let text = plot(
         &[
@@ -799,17 +779,13 @@ fn bad_input_exits_2_and_writes_no_figure() {
     let cylinders = write(
         &dir,
         "c.json",
-        &Packing::new(
-            ContainerRecord::Box {
-                min: [0.0; 3],
-                max: [10.0; 3],
-                periodic: [true; 3],
-            },
+        &in_box(
             vec![ParticleRecord::Cylinder {
                 center: [5.0; 3],
                 radius: 0.5,
                 half_axis: [0.0, 0.0, 1.0],
             }],
+            true,
         ),
     );
     let not_a_log = dir.join("bad.jsonl");
