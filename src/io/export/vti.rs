@@ -72,6 +72,31 @@ pub(super) fn compressed(data: &[u8]) -> std::io::Result<Vec<u8>> {
     Ok(out)
 }
 
+/// The start of a VTK XML file of dataset `kind` whose arrays are appended and compressed
+/// (shared with [`super::vtk`]): declaration, provenance comment, `<VTKFile>`.
+pub(super) fn write_head(w: &mut impl Write, packing: &Packing, kind: &str) -> std::io::Result<()> {
+    writeln!(w, "<?xml version=\"1.0\"?>")?;
+    writeln!(
+        w,
+        "<!-- {} -->",
+        provenance_line(packing).replace("--", "-")
+    )?;
+    writeln!(
+        w,
+        "<VTKFile type=\"{kind}\" version=\"1.0\" byte_order=\"LittleEndian\" \
+         header_type=\"UInt64\" compressor=\"vtkZLibDataCompressor\">"
+    )
+}
+
+/// The end of a file begun by [`write_head`]: the appended block `payload` (raw bytes after
+/// the `_` marker) and `</VTKFile>`.
+pub(super) fn write_tail(w: &mut impl Write, payload: &[u8]) -> std::io::Result<()> {
+    write!(w, "  <AppendedData encoding=\"raw\">\n   _")?;
+    w.write_all(payload)?;
+    writeln!(w, "\n  </AppendedData>")?;
+    writeln!(w, "</VTKFile>")
+}
+
 /// Voxelises `packing` (`voxels` along the longest edge, `labels`) and writes the `.vti`.
 pub fn write_vti(
     packing: &Packing,
@@ -91,17 +116,7 @@ pub fn write_vti(
     let [ox, oy, oz] = grid.origin;
     let [hx, hy, hz] = grid.spacing;
     super::write_file(path, |w| {
-        writeln!(w, "<?xml version=\"1.0\"?>")?;
-        writeln!(
-            w,
-            "<!-- {} -->",
-            provenance_line(packing).replace("--", "-")
-        )?;
-        writeln!(
-            w,
-            "<VTKFile type=\"ImageData\" version=\"1.0\" byte_order=\"LittleEndian\" \
-             header_type=\"UInt64\" compressor=\"vtkZLibDataCompressor\">"
-        )?;
+        write_head(w, packing, "ImageData")?;
         writeln!(
             w,
             "  <ImageData WholeExtent=\"0 {nx} 0 {ny} 0 {nz}\" Origin=\"{ox} {oy} {oz}\" \
@@ -117,10 +132,7 @@ pub fn write_vti(
         writeln!(w, "      </CellData>")?;
         writeln!(w, "    </Piece>")?;
         writeln!(w, "  </ImageData>")?;
-        write!(w, "  <AppendedData encoding=\"raw\">\n   _")?;
-        w.write_all(&payload)?;
-        writeln!(w, "\n  </AppendedData>")?;
-        writeln!(w, "</VTKFile>")
+        write_tail(w, &payload)
     })?;
     Ok(summary)
 }

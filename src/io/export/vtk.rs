@@ -26,7 +26,7 @@
 //! each cap, a polygon inscribed in the circle. A periodic box is drawn the same: its faces
 //! are where the images begin.
 
-use super::{provenance_line, ExportError};
+use super::ExportError;
 use crate::io::packing::{ContainerRecord, Packing, ParticleRecord};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -163,17 +163,7 @@ fn write_grid(
         appended.array("Int64", "connectivity", 1, i64_bytes(cells.0.into_iter()))?;
     let offsets = appended.array("Int64", "offsets", 1, i64_bytes(cells.1.into_iter()))?;
     let types = appended.array("UInt8", "types", 1, cells.2)?;
-    writeln!(w, "<?xml version=\"1.0\"?>")?;
-    writeln!(
-        w,
-        "<!-- {} -->",
-        provenance_line(packing).replace("--", "-")
-    )?;
-    writeln!(
-        w,
-        "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" \
-         header_type=\"UInt64\" compressor=\"vtkZLibDataCompressor\">"
-    )?;
+    super::vti::write_head(w, packing, "UnstructuredGrid")?;
     writeln!(w, "  <UnstructuredGrid>")?;
     writeln!(
         w,
@@ -193,10 +183,7 @@ fn write_grid(
     )?;
     writeln!(w, "    </Piece>")?;
     writeln!(w, "  </UnstructuredGrid>")?;
-    write!(w, "  <AppendedData encoding=\"raw\">\n   _")?;
-    w.write_all(&appended.payload)?;
-    writeln!(w, "\n  </AppendedData>")?;
-    writeln!(w, "</VTKFile>")
+    super::vti::write_tail(w, &appended.payload)
 }
 
 /// Writes the particles' `.vtu` document to `w`.
