@@ -595,9 +595,9 @@ fn gr_plot_draws_one_point_per_bin_and_marks_the_contact_and_second_peak_distanc
         &[
             "gr",
             path.to_str().unwrap(),
-            "--bins",
+            "--gr-bins",
             "40",
-            "--range",
+            "--gr-range",
             "2.0",
         ],
         &dir.join("g.svg"),
@@ -805,8 +805,8 @@ fn bad_input_exits_2_and_writes_no_figure() {
             "--d-min",
         ),
         (vec!["sizes", good, "--bins", "0"], "--bins"),
-        (vec!["gr", good, "--bins", "0"], "--bins"),
-        (vec!["gr", good, "--range=-1"], "--range"),
+        (vec!["gr", good, "--gr-bins", "0"], "--gr-bins"),
+        (vec!["gr", good, "--gr-range=-1"], "--gr-range"),
         (vec!["gr", cylinders.to_str().unwrap()], "not a sphere"),
         (
             vec!["section", good, "--at", "10.5"],

@@ -251,9 +251,8 @@ pub fn jamming_report(
             .sum();
         kept - trivial as i64
     };
-    // The row at cut-off `h` and the backbone's particles.
-    let row_alive = |h: f64| -> (CutoffRow, Vec<bool>) {
-        let (alive, backbone) = backbone(n, &contacts, h, &sphere);
+    // The row at cut-off `h` of the backbone `alive` with contacts `backbone`.
+    let row_of = |h: f64, alive: &[bool], backbone: &[Contact]| -> CutoffRow {
         let nb = alive.iter().filter(|&&a| a).count();
         let count = contacts.iter().filter(|c| c.gap < h).count() as f64;
         let pairs = contacts
@@ -263,17 +262,30 @@ pub fn jamming_report(
         let walls = count - pairs;
         let b_pairs = backbone.iter().filter(|c| c.j.is_some()).count() as f64;
         let b_walls = backbone.len() as f64 - b_pairs;
-        let freedoms = freedoms_of(&alive);
-        let row = CutoffRow {
+        let freedoms = freedoms_of(alive);
+        CutoffRow {
             cutoff: h,
             mean_contacts: (2.0 * pairs + walls) / n.max(1) as f64,
             rattler_fraction: (n - nb) as f64 / n.max(1) as f64,
             backbone_mean_contacts: (nb > 0).then(|| (2.0 * b_pairs + b_walls) / nb as f64),
             constraints_per_freedom: (freedoms > 0).then(|| (b_pairs + b_walls) / freedoms as f64),
-        };
-        (row, alive)
+        }
     };
-    let (at_cutoff, alive_at_cutoff) = row_alive(cutoff);
+    // The backbone at the report's cut-off serves its row, the plateau's row at the same
+    // cut-off (the default is one of them), the LP test and the rattler flags.
+    let (alive_at_cutoff, backbone_at_cutoff) = backbone(n, &contacts, cutoff, &sphere);
+    let at_cutoff = row_of(cutoff, &alive_at_cutoff, &backbone_at_cutoff);
+    let plateau = PLATEAU_CUTOFFS
+        .iter()
+        .map(|&h| {
+            if h == cutoff {
+                at_cutoff.clone()
+            } else {
+                let (alive, kept) = backbone(n, &contacts, h, &sphere);
+                row_of(h, &alive, &kept)
+            }
+        })
+        .collect();
     let mut contact_numbers = vec![0u32; n];
     for c in contacts.iter().filter(|c| c.gap < cutoff) {
         contact_numbers[c.i as usize] += 1;
@@ -283,14 +295,19 @@ pub fn jamming_report(
     }
     let lp_skipped = lp && ellipsoids > 0;
     let lp = (lp && !lp_skipped).then(|| {
-        let (alive, backbone) = backbone(n, &contacts, cutoff, &sphere);
-        let freedoms = freedoms_of(&alive);
-        if (backbone.len() as i64) < freedoms + 1 {
+        let freedoms = freedoms_of(&alive_at_cutoff);
+        if (backbone_at_cutoff.len() as i64) < freedoms + 1 {
             // Fewer contacts than non-trivial freedoms plus the self-stress: floppy motions
             // exist by counting alone (Maxwell), no program needs to find one.
-            LpCertificate::hypostatic(backbone.len(), freedoms)
+            LpCertificate::hypostatic(backbone_at_cutoff.len(), freedoms)
         } else {
-            lp_certificate(&alive, &backbone, periodic, seed, time_limit)
+            lp_certificate(
+                &alive_at_cutoff,
+                &backbone_at_cutoff,
+                periodic,
+                seed,
+                time_limit,
+            )
         }
     });
     let bonds = bond_normals.len();
@@ -303,7 +320,7 @@ pub fn jamming_report(
         isostatic_contacts: 2.0 * freedoms_per_particle,
         cutoff,
         at_cutoff,
-        plateau: PLATEAU_CUTOFFS.iter().map(|&h| row_alive(h).0).collect(),
+        plateau,
         trivial_motions: trivial,
         q6: q6(&bond_normals),
         q6_random: 1.0 / (bonds.max(1) as f64).sqrt(),

@@ -411,7 +411,8 @@ fn polygon_box(vertices: &[[f64; 2]]) -> ([f64; 2], [f64; 2]) {
 }
 
 /// The convex hull of `points`, counter-clockwise (Andrew's monotone chain); collinear
-/// points are dropped.
+/// points are dropped. Written here: the only 2-D geometry the project needs, where a
+/// crate (parry2d, geo) would add a dependency tree for twenty lines.
 fn convex_hull(mut points: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
     points.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
     points.dedup();

@@ -77,11 +77,11 @@ enum PlotKind {
     Gr {
         /// Packing file (JSON).
         packing: PathBuf,
-        /// Number of bins over the range.
-        #[arg(long, default_value_t = densepack::analysis::structure::DEFAULT_GR_BINS)]
+        /// Number of bins over the range (as `analyse --gr-bins`).
+        #[arg(long = "gr-bins", default_value_t = densepack::analysis::structure::DEFAULT_GR_BINS)]
         bins: usize,
-        /// Largest r/(r_i + r_j).
-        #[arg(long, default_value_t = densepack::analysis::structure::DEFAULT_GR_RANGE)]
+        /// Largest r/(r_i + r_j) (as `analyse --gr-range`).
+        #[arg(long = "gr-range", default_value_t = densepack::analysis::structure::DEFAULT_GR_RANGE)]
         range: f64,
         /// Output SVG file (written atomically).
         #[arg(long)]
@@ -191,20 +191,12 @@ fn render(kind: &PlotKind) -> Result<String, PlotError> {
             range,
             ..
         } => {
-            use densepack::analysis::structure::{radial_distribution, MAX_GR_BINS};
-            if !(1..=MAX_GR_BINS).contains(bins) {
-                return Err(PlotError::Input(format!(
-                    "--bins = {bins}: must be in 1..={MAX_GR_BINS}"
-                )));
-            }
-            if !(range.is_finite() && *range > 0.0) {
-                return Err(PlotError::Input(format!(
-                    "--range = {range}: must be a finite number > 0 (the largest r/(r_i + r_j))"
-                )));
-            }
+            use densepack::analysis::structure::{check_gr, radial_distribution};
+            let input =
+                |e: densepack::analysis::structure::StructureError| PlotError::Input(e.to_string());
+            check_gr(*bins, *range).map_err(input)?;
             let packing = read_packing(packing)?;
-            let g = radial_distribution(&packing, *bins, *range)
-                .map_err(|e| PlotError::Input(e.to_string()))?;
+            let g = radial_distribution(&packing, *bins, *range).map_err(input)?;
             gr_svg(&g, packing.particles.len())
         }
         PlotKind::Convergence { run_log, .. } => convergence_svg(&read_run_log(run_log)?),

@@ -64,16 +64,16 @@ pub enum GmshGroups {
     ByParticle,
 }
 
-/// The physical volume of a particle kind in a packing with several kinds: its name and
-/// tag (3 + the voxel phase id of the kind, so that tags 1–3 keep their meaning).
-fn kind_group(p: &ParticleRecord) -> (&'static str, usize) {
-    let id = usize::from(super::voxel::phase_id(p));
-    let name = match p {
-        ParticleRecord::Sphere { .. } => "spheres",
-        ParticleRecord::Ellipsoid { .. } => "ellipsoids",
-        ParticleRecord::Cylinder { .. } => "cylinders",
-    };
-    (name, 3 + id)
+/// The physical volume of a particle kind in a packing with several kinds: the plural of
+/// the kind's voxel phase name and tag 3 + its phase id (so that tags 1–3 keep their
+/// meaning): one list of kinds for both exports.
+fn kind_group(p: &ParticleRecord) -> (String, usize) {
+    let id = super::voxel::phase_id(p);
+    let (_, name) = super::voxel::PHASE_NAMES
+        .iter()
+        .find(|(phase, _)| *phase == id)
+        .expect("every phase id is named");
+    (format!("{name}s"), 3 + usize::from(id))
 }
 
 /// One solid of the script: a particle (or shell) translated by a periodic image shift.
@@ -574,13 +574,13 @@ fn geo(
     // The physical volumes of the particles: (name, tag, core tags), in order of first
     // appearance. Cores are pushed particle by particle, so a particle's tags are contiguous.
     let kinds = {
-        let mut seen: Vec<(&str, usize)> = Vec::new();
-        for p in &packing.particles {
-            let g = kind_group(p);
-            if !seen.contains(&g) {
-                seen.push(g);
-            }
-        }
+        let mut seen: Vec<u8> = packing
+            .particles
+            .iter()
+            .map(super::voxel::phase_id)
+            .collect();
+        seen.sort_unstable();
+        seen.dedup();
         seen.len()
     };
     let mut groups: Vec<(String, usize, Vec<usize>)> = Vec::new();
@@ -588,10 +588,7 @@ fn geo(
         let (name, tag) = match opts.groups {
             GmshGroups::ByParticle => (format!("particle_{}", solid.index), 1000 + solid.index),
             GmshGroups::ByKind if kinds == 1 => ("aggregates".to_string(), 2),
-            GmshGroups::ByKind => {
-                let (name, tag) = kind_group(solid.particle);
-                (name.to_string(), tag)
-            }
+            GmshGroups::ByKind => kind_group(solid.particle),
         };
         match groups.iter_mut().find(|g| g.1 == tag) {
             Some(g) => g.2.push(first_core + k),
