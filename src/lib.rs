@@ -60,7 +60,7 @@
 //!     .particles
 //!     .iter()
 //!     .map(|p| match p {
-//!         ParticleRecord::Sphere { center, radius } => (*center, *radius),
+//!         ParticleRecord::Sphere(s) => (s.center, s.radius),
 //!         _ => unreachable!("the scene holds spheres only"),
 //!     })
 //!     .collect();

@@ -39,7 +39,8 @@
 //! closed form `|c − wall| − √(nᵀMn)`; against a cylinder mantle its bounding sphere is used
 //! (conservative).
 
-use crate::io::packing::{ContainerRecord, Packing, ParticleRecord};
+use crate::io::packing::{ContainerRecord, Packing};
+use crate::io::record::{Body, Oriented, SupportMap};
 use nalgebra::Vector3;
 
 /// Default relative tolerance of the overlap test (rounding of the written coordinates and of
@@ -167,12 +168,53 @@ struct Ball {
     r: f64,
 }
 
-/// An ellipsoid as the verification sees it: `M = R·diag(a², b², c²)·Rᵀ`, its volume and its
-/// smallest semi-axis.
-struct Oriented {
-    m: [[f64; 3]; 3],
-    volume: f64,
-    a_min: f64,
+impl SupportMap for Ball {
+    fn center(&self) -> Vector3<f64> {
+        Vector3::from(self.c)
+    }
+
+    fn radius(&self) -> f64 {
+        self.r
+    }
+
+    fn bound(&self) -> f64 {
+        self.r
+    }
+
+    fn volume(&self) -> f64 {
+        4.0 / 3.0 * std::f64::consts::PI * self.r.powi(3)
+    }
+
+    fn shifted(&self, t: Vector3<f64>) -> Box<dyn SupportMap> {
+        Box::new(Ball {
+            c: (Vector3::from(self.c) + t).into(),
+            r: self.r,
+        })
+    }
+
+    fn eroded(&self, delta: f64) -> Box<dyn SupportMap> {
+        Box::new(Ball {
+            c: self.c,
+            r: self.r - delta,
+        })
+    }
+
+    fn support(&self, d: &Vector3<f64>) -> f64 {
+        Vector3::from(self.c).dot(d) + self.r * d.norm()
+    }
+
+    fn support_point(&self, d: &Vector3<f64>) -> Vector3<f64> {
+        let (c, n) = (Vector3::from(self.c), d.norm());
+        if n > 0.0 {
+            c + d * (self.r / n)
+        } else {
+            c
+        }
+    }
+
+    fn as_ball(&self) -> Option<(Vector3<f64>, f64)> {
+        Some((Vector3::from(self.c), self.r))
+    }
 }
 
 /// The check a Gmsh export runs on the surfaces it writes
@@ -244,44 +286,49 @@ pub fn verify_with(packing: &Packing, options: &VerifyOptions) -> Verification {
     if packing
         .particles
         .iter()
-        .any(|p| matches!(p, ParticleRecord::Cylinder { .. }))
+        .any(|p| matches!(p.body(), Body::Convex(_)))
     {
         return verify_convex_with(packing, terms);
     }
-    let balls: Vec<Ball> = packing
-        .particles
-        .iter()
-        .map(|p| match p {
-            ParticleRecord::Sphere { center, radius } => Ball {
-                c: *center,
-                r: *radius,
-            },
-            ParticleRecord::Ellipsoid {
-                center, semi_axes, ..
-            } => Ball {
-                c: *center,
-                r: semi_axes.iter().copied().fold(f64::NAN, f64::max),
-            },
-            ParticleRecord::Cylinder { .. } => {
-                unreachable!("packings with cylinders go to verify_convex_with")
-            }
-        })
-        .collect();
     // Boxed: a sphere costs 8 bytes here, not the 88 of an inline `Option<Oriented>` (the
     // verification of a 10⁶-sphere packing must not outgrow the simulation's memory).
-    let oriented: Vec<Option<Box<Oriented>>> = packing
+    let (balls, oriented): (Vec<Ball>, Vec<Option<Box<Oriented>>>) = packing
         .particles
         .iter()
-        .map(|p| oriented_of(p).map(Box::new))
-        .collect();
+        .map(|p| match p.body() {
+            Body::Ball { center, radius } => (
+                Ball {
+                    c: center,
+                    r: radius,
+                },
+                None,
+            ),
+            Body::Ellipsoid {
+                center,
+                bound,
+                oriented,
+            } => (
+                Ball {
+                    c: center,
+                    r: bound,
+                },
+                Some(Box::new(oriented)),
+            ),
+            Body::Convex(_) => {
+                unreachable!("packings with other convex bodies go to verify_convex_with")
+            }
+        })
+        .unzip();
     let (tol, gap, wall_gap) = (terms.tol, terms.gap, terms.wall_gap);
     let mut out = Verification::new(balls.len(), balls.len(), tol);
     for problem in terms.problems {
         out.violate(problem);
     }
-    for (i, b) in balls.iter().enumerate() {
-        if !(b.r.is_finite() && b.r > 0.0 && b.c.iter().all(|x| x.is_finite())) {
-            out.violate(format!("particle {i}: non-finite centre or radius ≤ 0"));
+    for (i, (p, b)) in packing.particles.iter().zip(&balls).enumerate() {
+        if !b.c.iter().all(|x| x.is_finite()) {
+            out.violate(format!("particle {i}: non-finite centre"));
+        } else if let Some(e) = p.size_error() {
+            out.violate(format!("particle {i}: {e}"));
         }
     }
     let (lo, hi, periodic, volume) = match &packing.container {
@@ -310,21 +357,6 @@ pub fn verify_with(packing: &Packing, options: &VerifyOptions) -> Verification {
             std::f64::consts::PI * radius * radius * height,
         ),
     };
-    for (i, p) in packing.particles.iter().enumerate() {
-        if let ParticleRecord::Ellipsoid {
-            semi_axes,
-            orientation,
-            ..
-        } = p
-        {
-            let norm = orientation.iter().map(|x| x * x).sum::<f64>().sqrt();
-            if !(semi_axes.iter().all(|a| a.is_finite() && *a > 0.0) && (norm - 1.0).abs() < 1e-9) {
-                out.violate(format!(
-                    "particle {i}: semi-axes ≤ 0 or orientation not a unit quaternion"
-                ));
-            }
-        }
-    }
     let sphere_volume: f64 = balls
         .iter()
         .zip(&oriented)
@@ -783,107 +815,6 @@ fn lattice_shifts(
     Some(all)
 }
 
-/// A convex body as the independent check sees it.
-#[derive(Clone, Copy, Debug)]
-enum Convex {
-    Ball {
-        c: Vector3<f64>,
-        r: f64,
-    },
-    /// Cylinder: centre, unit axis, half-length, radius.
-    Rod {
-        c: Vector3<f64>,
-        u: Vector3<f64>,
-        h: f64,
-        r: f64,
-    },
-}
-
-impl Convex {
-    fn center(&self) -> Vector3<f64> {
-        match self {
-            Convex::Ball { c, .. } | Convex::Rod { c, .. } => *c,
-        }
-    }
-
-    fn radius(&self) -> f64 {
-        match self {
-            Convex::Ball { r, .. } | Convex::Rod { r, .. } => *r,
-        }
-    }
-
-    fn bound(&self) -> f64 {
-        match self {
-            Convex::Ball { r, .. } => *r,
-            Convex::Rod { h, r, .. } => h.hypot(*r),
-        }
-    }
-
-    fn volume(&self) -> f64 {
-        match self {
-            Convex::Ball { r, .. } => 4.0 / 3.0 * std::f64::consts::PI * r.powi(3),
-            Convex::Rod { h, r, .. } => 2.0 * std::f64::consts::PI * r * r * h,
-        }
-    }
-
-    fn shifted(&self, t: Vector3<f64>) -> Convex {
-        match *self {
-            Convex::Ball { c, r } => Convex::Ball { c: c + t, r },
-            Convex::Rod { c, u, h, r } => Convex::Rod { c: c + t, u, h, r },
-        }
-    }
-
-    /// The body minus a shell of thickness `delta` (Minkowski erosion by a ball).
-    fn eroded(&self, delta: f64) -> Convex {
-        match *self {
-            Convex::Ball { c, r } => Convex::Ball { c, r: r - delta },
-            Convex::Rod { c, u, h, r } => Convex::Rod {
-                c,
-                u,
-                h: h - delta,
-                r: r - delta,
-            },
-        }
-    }
-
-    /// Support function `max_{x ∈ body} x·d`.
-    fn support(&self, d: &Vector3<f64>) -> f64 {
-        match self {
-            Convex::Ball { c, r } => c.dot(d) + r * d.norm(),
-            Convex::Rod { c, u, h, r } => {
-                let along = u.dot(d);
-                c.dot(d) + h * along.abs() + r * (d - u * along).norm()
-            }
-        }
-    }
-
-    /// A point of the body maximising `x·d` (a base-disk rim point for a cylinder, the
-    /// base centre when `d` is along the axis).
-    fn support_point(&self, d: &Vector3<f64>) -> Vector3<f64> {
-        match self {
-            Convex::Ball { c, r } => {
-                let n = d.norm();
-                if n > 0.0 {
-                    c + d * (r / n)
-                } else {
-                    *c
-                }
-            }
-            Convex::Rod { c, u, h, r } => {
-                let along = u.dot(d);
-                let across = d - u * along;
-                let n = across.norm();
-                let end = if along >= 0.0 { u * *h } else { -u * *h };
-                if n > 0.0 {
-                    c + end + across * (r / n)
-                } else {
-                    c + end
-                }
-            }
-        }
-    }
-}
-
 /// The point of the convex hull of `pts` (1 to 4 points) nearest to the origin, and the
 /// points spanning the face it lies on. Every non-empty subset is tried: its affine
 /// minimiser (normal equations of the barycentric weights) is kept when all weights are
@@ -953,11 +884,11 @@ enum PairCheck {
 
 /// Separation of the eroded bodies `a`, `b` (see the module documentation); `a_full`,
 /// `b_full` give the reported gap.
-fn check_pair(a_full: &Convex, b_full: &Convex, tol: f64) -> PairCheck {
+fn check_pair(a_full: &dyn SupportMap, b_full: &dyn SupportMap, tol: f64) -> PairCheck {
     let a = a_full.eroded(tol * a_full.radius());
     let b = b_full.eroded(tol * b_full.radius());
     let size = a_full.bound().max(b_full.bound());
-    if let (Convex::Ball { c: ca, r: ra }, Convex::Ball { c: cb, r: rb }) = (a_full, b_full) {
+    if let (Some((ca, ra)), Some((cb, rb))) = (a_full.as_ball(), b_full.as_ball()) {
         let gap = (cb - ca).norm() - ra - rb;
         return if gap > -tol * (ra + rb) {
             PairCheck::Separated(gap)
@@ -1011,51 +942,42 @@ fn verify_convex_with(packing: &Packing, terms: Terms) -> Verification {
         out.violate(problem);
     }
     let ContainerRecord::Box { min, max, periodic } = &packing.container else {
-        out.violate("cylinders are supported in periodic boxes only".into());
+        out.violate(
+            "cylinders (and other convex bodies) are checked in periodic boxes only".into(),
+        );
         return out;
     };
     if periodic.iter().any(|p| !p) {
-        out.violate("cylinders are supported in fully periodic boxes only".into());
+        out.violate(
+            "cylinders (and other convex bodies) are checked in fully periodic boxes only".into(),
+        );
         return out;
     }
     let lo = Vector3::from(*min);
     let len = Vector3::from(*max) - lo;
     let mut bodies = Vec::with_capacity(packing.particles.len());
     for (i, p) in packing.particles.iter().enumerate() {
-        let (body, ok) = match p {
-            ParticleRecord::Sphere { center, radius } => (
-                Convex::Ball {
-                    c: Vector3::from(*center),
-                    r: *radius,
-                },
-                radius.is_finite() && *radius > 0.0,
-            ),
-            ParticleRecord::Cylinder {
-                center,
-                radius,
-                half_axis,
-            } => {
-                let l = Vector3::from(*half_axis);
-                let h = l.norm();
-                (
-                    Convex::Rod {
-                        c: Vector3::from(*center),
-                        u: l / h,
-                        h,
-                        r: *radius,
-                    },
-                    radius.is_finite() && *radius > 0.0 && h.is_finite() && h > 0.0,
-                )
-            }
-            #[allow(unreachable_patterns)]
-            _ => {
-                out.violate(format!("particle {i}: unsupported in a mixture"));
+        let body: Box<dyn SupportMap> = match p.body() {
+            Body::Ball { center, radius } => Box::new(Ball {
+                c: center,
+                r: radius,
+            }),
+            Body::Convex(body) => body,
+            Body::Ellipsoid { .. } => {
+                out.violate(format!(
+                    "particle {i}: {}s are not checked beside other convex bodies",
+                    p.kind()
+                ));
                 continue;
             }
         };
         let c = body.center();
-        if !ok || c.iter().any(|x| !x.is_finite()) {
-            out.violate(format!("particle {i}: non-finite or non-positive size"));
+        if c.iter().any(|x| !x.is_finite()) {
+            out.violate(format!("particle {i}: non-finite centre"));
+            continue;
+        }
+        if let Some(e) = p.size_error() {
+            out.violate(format!("particle {i}: {e}"));
             continue;
         }
         if (0..3).any(|k| !(c[k] >= lo[k] && c[k] <= lo[k] + len[k])) {
@@ -1067,32 +989,33 @@ fn verify_convex_with(packing: &Packing, terms: Terms) -> Verification {
     }
     out.packing_fraction =
         bodies.iter().map(|(_, b)| b.volume()).sum::<f64>() / (len.x * len.y * len.z);
-    let record = |out: &mut Verification, i: usize, j: usize, a: &Convex, b: &Convex| {
-        let radii = a.radius() + b.radius();
-        match check_pair(a, b, tol) {
-            PairCheck::Separated(gap) => {
-                if out.min_pair_gap.is_none_or(|m| gap < m) {
-                    out.min_pair_gap = Some(gap);
-                }
-                let rel = gap / radii;
-                if out.min_pair_gap_relative.is_none_or(|m| rel < m) {
-                    out.min_pair_gap_relative = Some(rel);
-                }
-                if claimed > 0.0 && gap < claimed - tol * radii {
-                    out.broken_claim(format!(
-                        "particles {i} and {j} (or images): the claimed min_gap {claimed} is \
+    let record =
+        |out: &mut Verification, i: usize, j: usize, a: &dyn SupportMap, b: &dyn SupportMap| {
+            let radii = a.radius() + b.radius();
+            match check_pair(a, b, tol) {
+                PairCheck::Separated(gap) => {
+                    if out.min_pair_gap.is_none_or(|m| gap < m) {
+                        out.min_pair_gap = Some(gap);
+                    }
+                    let rel = gap / radii;
+                    if out.min_pair_gap_relative.is_none_or(|m| rel < m) {
+                        out.min_pair_gap_relative = Some(rel);
+                    }
+                    if claimed > 0.0 && gap < claimed - tol * radii {
+                        out.broken_claim(format!(
+                            "particles {i} and {j} (or images): the claimed min_gap {claimed} is \
                          not certified (at least {gap:e} apart)"
-                    ));
+                        ));
+                    }
                 }
+                PairCheck::Overlapping => out.overlap(format!(
+                    "particles {i} and {j} (or images) overlap beyond the tolerance {tol:e}"
+                )),
+                PairCheck::Undecided => out.violate(format!(
+                    "particles {i} and {j}: separation could not be certified"
+                )),
             }
-            PairCheck::Overlapping => out.overlap(format!(
-                "particles {i} and {j} (or images) overlap beyond the tolerance {tol:e}"
-            )),
-            PairCheck::Undecided => out.violate(format!(
-                "particles {i} and {j}: separation could not be certified"
-            )),
-        }
-    };
+        };
     let edges = [len.x, len.y, len.z];
     // Bodies whose bounding spheres are more than the claimed gap apart keep every promise.
     let shifts =
@@ -1105,7 +1028,7 @@ fn verify_convex_with(packing: &Packing, terms: Terms) -> Verification {
                 for t in own {
                     let first = t.iter().copied().find(|v| *v != 0.0);
                     if first.is_some_and(|v| v > 0.0) {
-                        record(&mut out, *i, *i, a, &a.shifted(t));
+                        record(&mut out, *i, *i, a.as_ref(), a.shifted(t).as_ref());
                     }
                 }
             }
@@ -1121,67 +1044,11 @@ fn verify_convex_with(packing: &Packing, terms: Terms) -> Verification {
                 continue;
             };
             for t in images {
-                record(&mut out, *i, *j, a, &b.shifted(base + t));
+                record(&mut out, *i, *j, a.as_ref(), b.shifted(base + t).as_ref());
             }
         }
     }
     out
-}
-
-/// The verification's view of an ellipsoid record (`None` for a sphere).
-fn oriented_of(p: &ParticleRecord) -> Option<Oriented> {
-    let ParticleRecord::Ellipsoid {
-        semi_axes,
-        orientation,
-        ..
-    } = p
-    else {
-        return None;
-    };
-    let n = orientation.iter().map(|x| x * x).sum::<f64>().sqrt();
-    let [w, x, y, z] = orientation.map(|q| q / n);
-    // Rotation matrix of a unit quaternion (paper 004, Eq. 5a).
-    let r = [
-        [
-            1.0 - 2.0 * (y * y + z * z),
-            2.0 * (x * y - w * z),
-            2.0 * (x * z + w * y),
-        ],
-        [
-            2.0 * (x * y + w * z),
-            1.0 - 2.0 * (x * x + z * z),
-            2.0 * (y * z - w * x),
-        ],
-        [
-            2.0 * (x * z - w * y),
-            2.0 * (y * z + w * x),
-            1.0 - 2.0 * (x * x + y * y),
-        ],
-    ];
-    let mut m = [[0.0; 3]; 3];
-    for (i, row) in m.iter_mut().enumerate() {
-        for (j, v) in row.iter_mut().enumerate() {
-            *v = (0..3)
-                .map(|k| r[i][k] * r[j][k] * semi_axes[k] * semi_axes[k])
-                .sum();
-        }
-    }
-    Some(Oriented {
-        m,
-        volume: 4.0 / 3.0 * std::f64::consts::PI * semi_axes[0] * semi_axes[1] * semi_axes[2],
-        a_min: semi_axes.iter().copied().fold(f64::INFINITY, f64::min),
-    })
-}
-
-/// `M` of a sphere (`r²·I`) or ellipsoid record as this check computes it, for other
-/// analyses of the written packing that need the Perram–Wertheim scale ([`contact_scale`]);
-/// `None` for a cylinder.
-pub(crate) fn shape_matrix(p: &ParticleRecord) -> Option<[[f64; 3]; 3]> {
-    match p {
-        ParticleRecord::Sphere { radius, .. } => Some(shape_matrix_of(None, *radius)),
-        ParticleRecord::Ellipsoid { .. } => oriented_of(p).map(|o| o.m),
-        ParticleRecord::Cylinder { .. } => None,
-    }
 }
 
 /// `M` of a particle: its ellipsoid's, or `r²·I` for a sphere of radius `r`.
@@ -1256,16 +1123,18 @@ fn contact_scale_above(mi: &[[f64; 3]; 3], mj: &[[f64; 3]; 3], d: &[f64; 3], flo
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::packing::ParticleRecord;
+    use crate::io::record::{CylinderRecord, EllipsoidRecord, SphereRecord};
 
     /// A needle of semi-axes `a : 0.05 : 0.05` at `centre`, its long axis at `degrees` to x
     /// in the x-y plane.
     fn needle(centre: [f64; 3], a: f64, degrees: f64) -> ParticleRecord {
         let half = 0.5 * degrees.to_radians();
-        ParticleRecord::Ellipsoid {
+        ParticleRecord::Ellipsoid(EllipsoidRecord {
             center: centre,
             semi_axes: [a, 0.05, 0.05],
             orientation: [half.cos(), 0.0, 0.0, half.sin()],
-        }
+        })
     }
 
     fn periodic_box(len: [f64; 3]) -> ContainerRecord {
@@ -1376,7 +1245,7 @@ mod tests {
             };
             let particles = balls
                 .iter()
-                .map(|&(center, radius)| ParticleRecord::Sphere { center, radius })
+                .map(|&(center, radius)| ParticleRecord::Sphere(SphereRecord { center, radius }))
                 .collect();
             let packing = Packing {
                 min_gap: gap,
@@ -1435,15 +1304,15 @@ mod tests {
                 let packing = Packing::new(
                     periodic_box([1.0; 3]),
                     vec![
-                        ParticleRecord::Cylinder {
+                        ParticleRecord::Cylinder(CylinderRecord {
                             center: centre.into(),
                             radius: rc,
                             half_axis: (u * h).into(),
-                        },
-                        ParticleRecord::Sphere {
+                        }),
+                        ParticleRecord::Sphere(SphereRecord {
                             center: s.into(),
                             radius: rs,
-                        },
+                        }),
                     ],
                 );
                 let v = verify(&packing);

@@ -7,6 +7,7 @@
 //! the libFuzzer targets remain for long coverage-guided runs.
 
 use densepack::io::packing::{ContainerRecord, Packing, ParticleRecord};
+use densepack::io::record::{CylinderRecord, EllipsoidRecord, SphereRecord};
 use densepack::io::scene::{AnyScene, Method, Scene, MAX_PARTICLES};
 use densepack::verify::{verify, TOLERANCE};
 use proptest::prelude::*;
@@ -38,14 +39,14 @@ fn packings() -> Vec<String> {
                 periodic: [false, true, false],
             },
             vec![
-                ParticleRecord::Sphere {
+                ParticleRecord::Sphere(SphereRecord {
                     center: [1.0, 1.0, 1.0],
                     radius: 0.5,
-                },
-                ParticleRecord::Sphere {
+                }),
+                ParticleRecord::Sphere(SphereRecord {
                     center: [2.5, 1.2, 1.5],
                     radius: 0.75,
-                },
+                }),
             ],
         )
     };
@@ -55,10 +56,10 @@ fn packings() -> Vec<String> {
             radius: 3.0,
             height: 5.0,
         },
-        vec![ParticleRecord::Sphere {
+        vec![ParticleRecord::Sphere(SphereRecord {
             center: [0.5, -0.5, 1.0],
             radius: 1.0,
-        }],
+        })],
     );
     let ellipsoids = Packing::new(
         ContainerRecord::Box {
@@ -67,16 +68,16 @@ fn packings() -> Vec<String> {
             periodic: [true, true, false],
         },
         vec![
-            ParticleRecord::Ellipsoid {
+            ParticleRecord::Ellipsoid(EllipsoidRecord {
                 center: [0.0, 0.0, 0.0],
                 semi_axes: [1.2, 0.4, 0.3],
                 orientation: [0.8, 0.6, 0.0, 0.0],
-            },
-            ParticleRecord::Ellipsoid {
+            }),
+            ParticleRecord::Ellipsoid(EllipsoidRecord {
                 center: [-1.5, 1.5, 1.0],
                 semi_axes: [0.5, 0.5, 0.25],
                 orientation: [1.0, 0.0, 0.0, 0.0],
-            },
+            }),
         ],
     );
     let mixture = Packing::new(
@@ -86,15 +87,15 @@ fn packings() -> Vec<String> {
             periodic: [true; 3],
         },
         vec![
-            ParticleRecord::Cylinder {
+            ParticleRecord::Cylinder(CylinderRecord {
                 center: [0.5, 0.5, 0.5],
                 radius: 0.1,
                 half_axis: [0.0, 0.2, 0.1],
-            },
-            ParticleRecord::Sphere {
+            }),
+            ParticleRecord::Sphere(SphereRecord {
                 center: [0.1, 0.9, 0.2],
                 radius: 0.15,
-            },
+            }),
         ],
     );
     [walled, cylinder, ellipsoids, mixture]

@@ -8,6 +8,7 @@ mod common;
 use common::{densepack, temp_dir};
 
 use densepack::io::packing::{Packing, ParticleRecord};
+use densepack::io::record::{EllipsoidRecord, SphereRecord};
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
@@ -93,14 +94,14 @@ fn assert_same_packing(a: &Path, b: &Path) {
         p.particles
             .iter()
             .flat_map(|r| match r {
-                ParticleRecord::Sphere { center, radius } => {
+                ParticleRecord::Sphere(SphereRecord { center, radius }) => {
                     [center.as_slice(), &[*radius]].concat()
                 }
-                ParticleRecord::Ellipsoid {
+                ParticleRecord::Ellipsoid(EllipsoidRecord {
                     center,
                     semi_axes,
                     orientation,
-                } => [center.as_slice(), semi_axes, orientation].concat(),
+                }) => [center.as_slice(), semi_axes, orientation].concat(),
                 other => panic!("an EDMD scene wrote {other:?}"),
             })
             .map(f64::to_bits)

@@ -7,6 +7,7 @@ mod common;
 
 use common::{assert_gap_and_containment, recomputed_phi, run_toml};
 use densepack::io::packing::{Packing, ParticleRecord};
+use densepack::io::record::SphereRecord;
 use densepack::io::scene::{Scene, SceneError};
 use densepack::protocol::take_phase::{DinCurve, GradingCurve, TakeParams, TakePhase};
 use rand::SeedableRng;
@@ -17,7 +18,7 @@ fn diameters(packing: &Packing) -> Vec<f64> {
         .particles
         .iter()
         .map(|p| match p {
-            ParticleRecord::Sphere { radius, .. } => 2.0 * radius,
+            ParticleRecord::Sphere(SphereRecord { radius, .. }) => 2.0 * radius,
             other => panic!("a sphere packing was expected, got {other:?}"),
         })
         .collect();
@@ -301,7 +302,9 @@ fn closest_wall(packing: &Packing, wall_distance: impl Fn(&[f64; 3]) -> f64) -> 
         .particles
         .iter()
         .map(|p| match p {
-            ParticleRecord::Sphere { center, radius } => wall_distance(center) - radius,
+            ParticleRecord::Sphere(SphereRecord { center, radius }) => {
+                wall_distance(center) - radius
+            }
             other => panic!("a sphere packing was expected, got {other:?}"),
         })
         .fold(f64::INFINITY, f64::min)

@@ -8,6 +8,7 @@ mod common;
 use common::{carnahan_starling, kolafa, recomputed_phi, run_toml};
 use densepack::boundary::PeriodicBox;
 use densepack::io::packing::{Packing, ParticleRecord};
+use densepack::io::record::EllipsoidRecord;
 use densepack::io::scene::{Scene, SceneError};
 use densepack::kernel::{Edmd, KernelConfig, Limits, RateSchedule, Stage, StopReason, Until};
 use densepack::protocol::rsa::rsa_spheres;
@@ -28,7 +29,7 @@ fn assert_valid(packing: &Packing) {
     let v = verify(packing);
     assert!(v.ok(), "{:?}", v.violations);
     for p in &packing.particles {
-        let ParticleRecord::Ellipsoid { orientation, .. } = p else {
+        let ParticleRecord::Ellipsoid(EllipsoidRecord { orientation, .. }) = p else {
             panic!("an ellipsoid scene writes ellipsoids");
         };
         let norm: f64 = orientation.iter().map(|x| x * x).sum();
@@ -179,11 +180,11 @@ fn ellipsoids_touch_flat_walls_with_their_own_surface() {
     assert_valid(&out.packing);
     let mut closest = f64::INFINITY;
     for p in &out.packing.particles {
-        let ParticleRecord::Ellipsoid {
+        let ParticleRecord::Ellipsoid(EllipsoidRecord {
             center,
             semi_axes,
             orientation,
-        } = p
+        }) = p
         else {
             unreachable!()
         };
@@ -249,7 +250,7 @@ fn orientations_stay_isotropic_and_aspect_ranges_are_honoured() {
         assert!((l - 1.0 / 3.0).abs() < 0.07, "eigenvalues {eigenvalues:?}");
     }
     for p in &out.packing.particles {
-        let ParticleRecord::Ellipsoid { semi_axes, .. } = p else {
+        let ParticleRecord::Ellipsoid(EllipsoidRecord { semi_axes, .. }) = p else {
             unreachable!()
         };
         let [a, b, c] = *semi_axes;
@@ -265,7 +266,7 @@ fn orientations_stay_isotropic_and_aspect_ranges_are_honoured() {
 fn long_axis_tensor(particles: &[ParticleRecord]) -> ([[f64; 3]; 3], [f64; 3]) {
     let mut t = [[0.0; 3]; 3];
     for p in particles {
-        let ParticleRecord::Ellipsoid { orientation, .. } = p else {
+        let ParticleRecord::Ellipsoid(EllipsoidRecord { orientation, .. }) = p else {
             unreachable!()
         };
         let n = orientation.iter().map(|q| q * q).sum::<f64>().sqrt();
@@ -370,7 +371,7 @@ fn needles_longer_than_half_the_box_pack_without_overlap() {
         .particles
         .iter()
         .map(|p| match p {
-            ParticleRecord::Ellipsoid { semi_axes, .. } => 2.0 * semi_axes[0],
+            ParticleRecord::Ellipsoid(EllipsoidRecord { semi_axes, .. }) => 2.0 * semi_axes[0],
             _ => unreachable!(),
         })
         .fold(0.0, f64::max);

@@ -7,6 +7,7 @@
 mod common;
 
 use common::densepack;
+use densepack::io::record::SphereRecord;
 
 use std::path::PathBuf;
 
@@ -119,7 +120,8 @@ fn csv_export_round_trips_every_sphere_bit_for_bit() {
         .collect();
     assert_eq!(rows.len(), packing.particles.len());
     for (row, p) in rows.iter().zip(&packing.particles) {
-        let densepack::io::packing::ParticleRecord::Sphere { center, radius } = p else {
+        let densepack::io::packing::ParticleRecord::Sphere(SphereRecord { center, radius }) = p
+        else {
             panic!("the packing holds only spheres");
         };
         assert_eq!(row, &vec![center[0], center[1], center[2], *radius]);

@@ -7,6 +7,7 @@ mod common;
 
 use common::densepack;
 use densepack::io::packing::{ContainerRecord, Packing};
+use densepack::io::record::SphereRecord;
 use std::path::{Path, PathBuf};
 
 fn run_scene(dir: &Path, scene: &str) -> PathBuf {
@@ -278,14 +279,14 @@ fn a_scene_starts_from_an_imported_packing_and_opens_a_gap_that_verifies() {
     let mut moved = 0;
     for (a, b) in p.particles.iter().zip(&start.particles) {
         let (
-            densepack::io::packing::ParticleRecord::Sphere {
+            densepack::io::packing::ParticleRecord::Sphere(SphereRecord {
                 center: ca,
                 radius: ra,
-            },
-            densepack::io::packing::ParticleRecord::Sphere {
+            }),
+            densepack::io::packing::ParticleRecord::Sphere(SphereRecord {
                 center: cb,
                 radius: rb,
-            },
+            }),
         ) = (a, b)
         else {
             panic!("spheres");

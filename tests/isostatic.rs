@@ -18,6 +18,7 @@
 
 use densepack::analysis::jamming::jamming_report;
 use densepack::io::packing::{ContainerRecord, Packing, ParticleRecord};
+use densepack::io::record::SphereRecord;
 use densepack::io::scene::{ContainerSpec, Scene};
 use densepack::run::run_scene;
 
@@ -50,7 +51,7 @@ fn spheres(packing: &Packing) -> (Vec<[f64; 3]>, Vec<f64>, f64) {
     let (mut centres, mut radii) = (Vec::new(), Vec::new());
     for p in &packing.particles {
         match p {
-            ParticleRecord::Sphere { center, radius } => {
+            ParticleRecord::Sphere(SphereRecord { center, radius }) => {
                 centres.push(*center);
                 radii.push(*radius);
             }

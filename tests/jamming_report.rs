@@ -7,6 +7,7 @@ mod common;
 
 use densepack::analysis::jamming::{jamming_report, JammingError, Q6_FCC};
 use densepack::io::packing::{ContainerRecord, Packing, ParticleRecord};
+use densepack::io::record::{CylinderRecord, EllipsoidRecord, SphereRecord};
 
 fn periodic_box(edge: f64) -> ContainerRecord {
     ContainerRecord::Box {
@@ -29,7 +30,7 @@ fn lattice(cells: usize, a: f64, basis: &[[f64; 3]], r: f64) -> Vec<ParticleReco
                         (y as f64 + b[1] + 0.25) * a,
                         (z as f64 + b[2] + 0.25) * a,
                     ];
-                    out.push(ParticleRecord::Sphere { center, radius: r });
+                    out.push(ParticleRecord::Sphere(SphereRecord { center, radius: r }));
                 }
             }
         }
@@ -111,7 +112,7 @@ fn a_loose_sphere_is_a_rattler_and_the_plateau_sees_each_gap() {
     let mut particles = lattice(4, a, &FCC, 0.5);
     // One sphere shrunk by 1 %: no contact left, a rattler; its twelve neighbours keep
     // eleven, spread over every hemisphere.
-    if let ParticleRecord::Sphere { radius, .. } = &mut particles[0] {
+    if let ParticleRecord::Sphere(SphereRecord { radius, .. }) = &mut particles[0] {
         *radius = 0.495;
     }
     let packing = Packing::new(periodic_box(4.0 * a), particles);
@@ -143,14 +144,14 @@ fn bad_cut_offs_cylinders_and_ellipsoid_gap_claims_are_refused() {
     for bad in [0.0, -1e-9, 0.5, f64::NAN] {
         assert!(jamming_report(&packing, bad, false, 1, 1.0).is_err());
     }
-    let cylinder = ParticleRecord::Cylinder {
+    let cylinder = ParticleRecord::Cylinder(CylinderRecord {
         center: [1.0; 3],
         radius: 0.2,
         half_axis: [0.0, 0.0, 0.5],
-    };
+    });
     let packing = Packing::new(periodic_box(6.0), vec![cylinder]);
     let e = jamming_report(&packing, 1e-9, false, 1, 1.0).unwrap_err();
-    assert_eq!(e, JammingError::Cylinder(0));
+    assert_eq!(e, JammingError::Unsupported(0, "cylinder"));
     // A claimed gap would make the grown grains parallel bodies, not ellipsoids.
     let mut packing = Packing::new(periodic_box(6.0), vec![spheroid([1.0; 3], 1.5, 0.0)]);
     packing.min_gap = 0.01;
@@ -173,11 +174,11 @@ fn bad_cut_offs_cylinders_and_ellipsoid_gap_claims_are_refused() {
 /// axis turned from world z towards world x by `degrees` about y.
 fn spheroid(center: [f64; 3], alpha: f64, degrees: f64) -> ParticleRecord {
     let half = 0.5 * degrees.to_radians();
-    ParticleRecord::Ellipsoid {
+    ParticleRecord::Ellipsoid(EllipsoidRecord {
         center,
         semi_axes: [0.5, 0.5, 0.5 * alpha],
         orientation: [half.cos(), 0.0, half.sin(), 0.0],
-    }
+    })
 }
 
 /// The FCC lattice of unit spheres with lattice spacing scaled by `1 + gap`, stretched by
@@ -190,7 +191,7 @@ fn stretched_fcc(alpha: f64, gap: f64) -> Packing {
     let particles = lattice(4, a, &FCC, 0.5)
         .into_iter()
         .map(|p| match p {
-            ParticleRecord::Sphere { center, .. } => {
+            ParticleRecord::Sphere(SphereRecord { center, .. }) => {
                 spheroid([alpha * center[0], center[1], center[2]], alpha, 90.0)
             }
             other => other,
@@ -290,10 +291,10 @@ fn pair_gaps_are_the_perram_wertheim_scale_factor_minus_one() {
     assert!((found / g - 1.0).abs() < 1e-9, "{found}");
     // A sphere of radius 0.5 beside a spheroid's side, across the periodic face.
     let found = pair_gap(
-        ParticleRecord::Sphere {
+        ParticleRecord::Sphere(SphereRecord {
             center: [19.9, 5.0, 5.0],
             radius: 0.5,
-        },
+        }),
         spheroid([-0.1 + 1.0 * (1.0 + g), 5.0, 5.0], alpha, 0.0),
     );
     assert!((found / g - 1.0).abs() < 1e-9, "{found}");
@@ -324,15 +325,15 @@ fn a_tilted_spheroid_touches_the_floor_at_its_half_width() {
 
 #[test]
 fn general_ellipsoids_have_six_freedoms_and_spheres_beside_them_three() {
-    let ellipsoid = ParticleRecord::Ellipsoid {
+    let ellipsoid = ParticleRecord::Ellipsoid(EllipsoidRecord {
         center: [1.0; 3],
         semi_axes: [0.5, 0.4, 0.3],
         orientation: [1.0, 0.0, 0.0, 0.0],
-    };
-    let sphere = ParticleRecord::Sphere {
+    });
+    let sphere = ParticleRecord::Sphere(SphereRecord {
         center: [4.0; 3],
         radius: 0.5,
-    };
+    });
     let r = jamming_report(
         &Packing::new(periodic_box(6.0), vec![ellipsoid.clone()]),
         1e-9,
@@ -388,11 +389,11 @@ fn analyse_reports_spheroids_and_flags_a_cut_off_below_the_plateau() {
 fn analyse_refuses_cylinders_with_exit_code_2() {
     let dir = common::temp_dir("analyse_cylinder");
     let path = dir.join("cylinder.json");
-    let cylinder = ParticleRecord::Cylinder {
+    let cylinder = ParticleRecord::Cylinder(CylinderRecord {
         center: [3.0; 3],
         radius: 0.2,
         half_axis: [0.0, 0.0, 0.5],
-    };
+    });
     Packing::new(periodic_box(6.0), vec![cylinder])
         .write(&path)
         .unwrap();
@@ -412,7 +413,7 @@ fn a_sphere_whose_four_contacts_lie_in_one_hemisphere_is_a_rattler() {
     let t = 0.1;
     let reach = (1.0 - 2.0_f64.sqrt() * t + t * t).sqrt();
     let mut particles = lattice(4, a, &FCC, 0.5);
-    if let ParticleRecord::Sphere { center, radius } = &mut particles[0] {
+    if let ParticleRecord::Sphere(SphereRecord { center, radius }) = &mut particles[0] {
         center[0] += t;
         *radius = reach - 0.5;
     }

@@ -5,6 +5,7 @@ mod common;
 
 use common::{assert_no_overlap, carnahan_starling, kolafa, recomputed_phi, run_toml};
 use densepack::boundary::PeriodicBox;
+use densepack::io::record::SphereRecord;
 use densepack::kernel::{Edmd, KernelConfig, Limits, RateSchedule, Stage, StopReason, Until};
 use densepack::protocol::rsa::rsa_spheres;
 use densepack::queue::CalendarQueue;
@@ -215,7 +216,7 @@ fn eight_spheres_in_a_walled_cube_jam_as_a_simple_cubic_lattice() {
     assert!((phi - std::f64::consts::PI / 6.0).abs() < 1e-3, "φ = {phi}");
     // Paper 001, Fig. 5: the eight spheres sit at the centres of the eight sub-cubes.
     for p in &out.packing.particles {
-        let densepack::io::packing::ParticleRecord::Sphere { center, .. } = p else {
+        let densepack::io::packing::ParticleRecord::Sphere(SphereRecord { center, .. }) = p else {
             panic!("spheres expected");
         };
         for x in center {
@@ -250,7 +251,9 @@ fn two_spheres_in_a_walled_cube_jam_in_opposite_corners() {
             .particles
             .iter()
             .map(|p| match p {
-                densepack::io::packing::ParticleRecord::Sphere { center, .. } => *center,
+                densepack::io::packing::ParticleRecord::Sphere(SphereRecord { center, .. }) => {
+                    *center
+                }
                 _ => panic!("spheres expected"),
             })
             .collect();
@@ -328,7 +331,7 @@ until = { reduced_pressure = 1e10 }
         .particles
         .iter()
         .map(|p| match p {
-            densepack::io::packing::ParticleRecord::Sphere { radius, .. } => *radius,
+            densepack::io::packing::ParticleRecord::Sphere(SphereRecord { radius, .. }) => *radius,
             other => panic!("spheres expected, got {other:?}"),
         })
         .collect();
@@ -347,7 +350,8 @@ until = { reduced_pressure = 1e10 }
     assert!(out.verification.min_wall_gap.unwrap() >= -1e-9 * big);
     // Containment checked here again, independently of `verify`.
     for p in &out.packing.particles {
-        let densepack::io::packing::ParticleRecord::Sphere { center, radius } = p else {
+        let densepack::io::packing::ParticleRecord::Sphere(SphereRecord { center, radius }) = p
+        else {
             panic!("spheres expected");
         };
         let rho = (center[0] - 1.0).hypot(center[1] + 2.0);

@@ -7,6 +7,7 @@ mod common;
 
 use common::recomputed_phi;
 use densepack::geometry::cylinder::{overlaps, Cylinder, Shape, Sphere};
+use densepack::io::record::CylinderRecord;
 use densepack::io::scene::{AnyScene, MixtureScene, SceneError};
 use densepack::protocol::mixture::relax::{random_rve, relax, RelaxError, RelaxSettings};
 use densepack::protocol::mixture::rsa::{rsa_mixture, RsaError, RsaLimits};
@@ -442,7 +443,7 @@ fn cli_runs_the_55_percent_scene_and_rejects_bad_ones() {
     let cylinders = packing
         .particles
         .iter()
-        .filter(|p| matches!(p, ParticleRecord::Cylinder { .. }))
+        .filter(|p| matches!(p, ParticleRecord::Cylinder(_)))
         .count();
     assert_eq!((cylinders, packing.particles.len()), (50, 100));
     let check = std::process::Command::new(bin)
@@ -452,10 +453,10 @@ fn cli_runs_the_55_percent_scene_and_rejects_bad_ones() {
     assert!(check.status.success());
     // Put the first cylinder onto the second: `verify` must fail.
     let second_center = match &packing.particles[1] {
-        ParticleRecord::Cylinder { center, .. } => *center,
+        ParticleRecord::Cylinder(CylinderRecord { center, .. }) => *center,
         other => panic!("cylinders come first: {other:?}"),
     };
-    if let ParticleRecord::Cylinder { center, .. } = &mut packing.particles[0] {
+    if let ParticleRecord::Cylinder(CylinderRecord { center, .. }) = &mut packing.particles[0] {
         *center = second_center;
     }
     let bad = dir.join("bad.json");

@@ -7,6 +7,7 @@ mod common;
 use common::{densepack, temp_dir};
 use densepack::analysis::{section, SectionCut};
 use densepack::io::packing::{ContainerRecord, Packing, ParticleRecord};
+use densepack::io::record::{CylinderRecord, EllipsoidRecord, SphereRecord};
 use std::path::{Path, PathBuf};
 
 /// A deterministic pseudo-random number in [0, 1) (a small LCG: the tests need no quality).
@@ -38,7 +39,7 @@ fn spheres(count: usize, periodic: bool, seed: u64) -> Packing {
             let radius = 0.3 + 0.9 * uniform(&mut s);
             let margin = if periodic { 0.0 } else { radius };
             let center = std::array::from_fn(|_| margin + (10.0 - 2.0 * margin) * uniform(&mut s));
-            ParticleRecord::Sphere { center, radius }
+            ParticleRecord::Sphere(SphereRecord { center, radius })
         })
         .collect();
     in_box(particles, periodic)
@@ -144,7 +145,7 @@ fn section_of_walled_spheres_draws_one_disc_per_cut_sphere_with_its_chord_radius
             .particles
             .iter()
             .filter_map(|p| match p {
-                ParticleRecord::Sphere { center, radius } => {
+                ParticleRecord::Sphere(SphereRecord { center, radius }) => {
                     let t = at - center[index];
                     (t.abs() < *radius).then(|| (radius * radius - t * t).sqrt())
                 }
@@ -181,7 +182,7 @@ fn section_of_a_periodic_box_includes_the_images_across_faces() {
     let mut expected = 0;
     let mut from_images_along_z = 0;
     for p in &packing.particles {
-        let ParticleRecord::Sphere { center, radius } = p else {
+        let ParticleRecord::Sphere(SphereRecord { center, radius }) = p else {
             unreachable!()
         };
         for i in -1..=1 {
@@ -268,11 +269,11 @@ fn ellipsoid_sections_lie_on_the_ellipsoid_surface() {
         let normal = case % 3;
         let at = center[normal] + 1.5 * (uniform(&mut s) - 0.5);
         let packing = in_box(
-            vec![ParticleRecord::Ellipsoid {
+            vec![ParticleRecord::Ellipsoid(EllipsoidRecord {
                 center,
                 semi_axes,
                 orientation: q,
-            }],
+            })],
             false,
         );
         let cuts = section(&packing, normal, at).unwrap().cuts;
@@ -318,21 +319,21 @@ fn ellipsoid_section_svg_draws_one_polygon_per_cut_ellipsoid_with_its_aspect() {
             periodic: [false; 3],
         },
         vec![
-            ParticleRecord::Ellipsoid {
+            ParticleRecord::Ellipsoid(EllipsoidRecord {
                 center: [5.0, 5.0, 5.0],
                 semi_axes: [3.0, 1.0, 2.0],
                 orientation: [1.0, 0.0, 0.0, 0.0],
-            },
-            ParticleRecord::Ellipsoid {
+            }),
+            ParticleRecord::Ellipsoid(EllipsoidRecord {
                 center: [15.0, 5.0, 5.0],
                 semi_axes: [3.0, 1.0, 2.0],
                 orientation: quarter,
-            },
-            ParticleRecord::Ellipsoid {
+            }),
+            ParticleRecord::Ellipsoid(EllipsoidRecord {
                 center: [10.0, 5.0, 8.5],
                 semi_axes: [1.0, 1.0, 1.0],
                 orientation: [1.0, 0.0, 0.0, 0.0],
-            },
+            }),
         ],
     );
     let path = write(&dir, "e.json", &packing);
@@ -384,9 +385,11 @@ fn sieve_plot_draws_the_packing_and_the_target_curve() {
     // Spheres from 2 to 16 mm, equal numbers per octave (not the target's distribution).
     let mut s = 5;
     let particles = (0..120)
-        .map(|_| ParticleRecord::Sphere {
-            center: std::array::from_fn(|_| 10.0 + 80.0 * uniform(&mut s)),
-            radius: 0.5 * 2.0 * 8f64.powf(uniform(&mut s)),
+        .map(|_| {
+            ParticleRecord::Sphere(SphereRecord {
+                center: std::array::from_fn(|_| 10.0 + 80.0 * uniform(&mut s)),
+                radius: 0.5 * 2.0 * 8f64.powf(uniform(&mut s)),
+            })
         })
         .collect();
     let packing = Packing::new(
@@ -505,9 +508,11 @@ fn sieve_plot_defaults_to_the_curve_of_the_packings_scene() {
 #[test]
 fn sizes_plot_bars_are_proportional_to_the_counts() {
     let dir = temp_dir("sizes");
-    let sphere = |x: f64, radius: f64| ParticleRecord::Sphere {
-        center: [x, 5.0, 5.0],
-        radius,
+    let sphere = |x: f64, radius: f64| {
+        ParticleRecord::Sphere(SphereRecord {
+            center: [x, 5.0, 5.0],
+            radius,
+        })
     };
     let mut particles: Vec<ParticleRecord> =
         (0..3).map(|k| sphere(1.0 + f64::from(k), 0.5)).collect();
@@ -535,9 +540,11 @@ fn a_narrow_size_range_gets_a_labelled_linear_size_axis() {
     // powers of 2) would print no size at all.
     let dir = temp_dir("sizes-narrow");
     let particles = (0..20)
-        .map(|k| ParticleRecord::Sphere {
-            center: [0.5 + 0.45 * f64::from(k), 5.0, 5.0],
-            radius: 0.55 + 0.005 * f64::from(k % 5 * 5),
+        .map(|k| {
+            ParticleRecord::Sphere(SphereRecord {
+                center: [0.5 + 0.45 * f64::from(k), 5.0, 5.0],
+                radius: 0.55 + 0.005 * f64::from(k % 5 * 5),
+            })
         })
         .collect();
     let packing = in_box(particles, true);
@@ -560,9 +567,11 @@ fn a_narrow_size_range_gets_a_labelled_linear_size_axis() {
 fn a_section_of_equal_particles_labels_their_one_size_once() {
     let dir = temp_dir("section-equal");
     let particles = (0..4)
-        .map(|k| ParticleRecord::Sphere {
-            center: [1.5 + 2.0 * f64::from(k), 5.0, 5.0],
-            radius: 0.75,
+        .map(|k| {
+            ParticleRecord::Sphere(SphereRecord {
+                center: [1.5 + 2.0 * f64::from(k), 5.0, 5.0],
+                radius: 0.75,
+            })
         })
         .collect();
     let packing = in_box(particles, false);
@@ -780,11 +789,11 @@ fn bad_input_exits_2_and_writes_no_figure() {
         &dir,
         "c.json",
         &in_box(
-            vec![ParticleRecord::Cylinder {
+            vec![ParticleRecord::Cylinder(CylinderRecord {
                 center: [5.0; 3],
                 radius: 0.5,
                 half_axis: [0.0, 0.0, 1.0],
-            }],
+            })],
             true,
         ),
     );

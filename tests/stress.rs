@@ -25,6 +25,7 @@ mod common;
 
 use densepack::boundary::{Boundary, PeriodicBox, WalledBox};
 use densepack::io::packing::{Packing, ParticleRecord};
+use densepack::io::record::{EllipsoidRecord, SphereRecord};
 use densepack::kernel::{
     Edmd, EventCounts, KernelConfig, Limits, Particle, RateSchedule, Stage, StopReason, Until,
 };
@@ -54,10 +55,10 @@ trait Recorded: Collidable {
 
 impl Recorded for Sphere {
     fn record(p: &Particle<Self>) -> ParticleRecord {
-        ParticleRecord::Sphere {
+        ParticleRecord::Sphere(SphereRecord {
             center: p.pos.into(),
             radius: p.shape.radius(0.0),
-        }
+        })
     }
     fn min_half_width(&self) -> f64 {
         self.radius(0.0)
@@ -67,11 +68,11 @@ impl Recorded for Sphere {
 impl Recorded for Ellipsoid {
     fn record(p: &Particle<Self>) -> ParticleRecord {
         let q = p.spin.orientation;
-        ParticleRecord::Ellipsoid {
+        ParticleRecord::Ellipsoid(EllipsoidRecord {
             center: p.pos.into(),
             semi_axes: p.shape.semi_axes(0.0).into(),
             orientation: [q.w, q.i, q.j, q.k],
-        }
+        })
     }
     fn min_half_width(&self) -> f64 {
         self.min_semi_axis(0.0)
@@ -611,8 +612,8 @@ fn scale_covariance() {
         let s = 10f64.powi(exponent);
         for (p, q) in packing.particles.iter().zip(&reference.particles) {
             let (
-                ParticleRecord::Sphere { center: a, .. },
-                ParticleRecord::Sphere { center: b, .. },
+                ParticleRecord::Sphere(SphereRecord { center: a, .. }),
+                ParticleRecord::Sphere(SphereRecord { center: b, .. }),
             ) = (p, q)
             else {
                 panic!("spheres expected");
@@ -711,14 +712,14 @@ fn coordinates_offset_by_a_million() {
         .zip(&at_origin.packing.particles)
     {
         let (
-            ParticleRecord::Sphere {
+            ParticleRecord::Sphere(SphereRecord {
                 center: a,
                 radius: ra,
-            },
-            ParticleRecord::Sphere {
+            }),
+            ParticleRecord::Sphere(SphereRecord {
                 center: b,
                 radius: rb,
-            },
+            }),
         ) = (p, q)
         else {
             panic!("sphere scenes write spheres: {p:?}, {q:?}");

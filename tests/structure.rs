@@ -14,6 +14,7 @@ use densepack::analysis::structure::{
     StructureError,
 };
 use densepack::io::packing::{ContainerRecord, Packing, ParticleRecord};
+use densepack::io::record::SphereRecord;
 use rand::{Rng, SeedableRng};
 use std::f64::consts::PI;
 
@@ -29,13 +30,15 @@ fn periodic_box(edge: f64) -> ContainerRecord {
 fn ideal_gas(n: usize, edge: f64, r_lo: f64, r_hi: f64, seed: u64) -> Vec<ParticleRecord> {
     let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);
     (0..n)
-        .map(|_| ParticleRecord::Sphere {
-            center: [0; 3].map(|_| rng.gen_range(0.0..edge)),
-            radius: if r_hi > r_lo {
-                rng.gen_range(r_lo..r_hi)
-            } else {
-                r_lo
-            },
+        .map(|_| {
+            ParticleRecord::Sphere(SphereRecord {
+                center: [0; 3].map(|_| rng.gen_range(0.0..edge)),
+                radius: if r_hi > r_lo {
+                    rng.gen_range(r_lo..r_hi)
+                } else {
+                    r_lo
+                },
+            })
         })
         .collect()
 }
@@ -51,7 +54,7 @@ fn assert_ideal(packing: &Packing, bins: usize, range: f64, volume: f64) {
         .particles
         .iter()
         .map(|p| match p {
-            ParticleRecord::Sphere { radius, .. } => *radius,
+            ParticleRecord::Sphere(SphereRecord { radius, .. }) => *radius,
             _ => unreachable!(),
         })
         .collect();
@@ -124,14 +127,14 @@ fn fcc(cells: usize) -> Packing {
         for y in 0..cells {
             for z in 0..cells {
                 for b in basis {
-                    particles.push(ParticleRecord::Sphere {
+                    particles.push(ParticleRecord::Sphere(SphereRecord {
                         center: [
                             (x as f64 + b[0] + 0.25) * a,
                             (y as f64 + b[1] + 0.25) * a,
                             (z as f64 + b[2] + 0.25) * a,
                         ],
                         radius: 0.5,
-                    });
+                    }));
                 }
             }
         }
@@ -291,10 +294,10 @@ fn slabs_of_a_sphere_add_up_to_its_volume_and_halve_it_through_its_centre() {
 fn one_sphere(container: ContainerRecord, center: [f64; 3]) -> Packing {
     Packing::new(
         container,
-        vec![ParticleRecord::Sphere {
+        vec![ParticleRecord::Sphere(SphereRecord {
             center,
             radius: 0.5,
-        }],
+        })],
     )
 }
 
@@ -421,10 +424,10 @@ fn rock_salt_size_classes_have_six_contacts_each() {
         for y in 0..2 * cells {
             for z in 0..2 * cells {
                 let radius = if (x + y + z) % 2 == 0 { 0.3 } else { 0.2 };
-                particles.push(ParticleRecord::Sphere {
+                particles.push(ParticleRecord::Sphere(SphereRecord {
                     center: [x, y, z].map(|k| 0.5 * k as f64 + 0.25),
                     radius,
-                });
+                }));
             }
         }
     }

@@ -8,6 +8,7 @@ mod common;
 
 use common::{densepack, temp_dir};
 use densepack::io::packing::{ContainerRecord, Packing, ParticleRecord};
+use densepack::io::record::{EllipsoidRecord, SphereRecord};
 use serde_json::Value;
 
 /// The decimal literal `text` (digits, an optional point, no exponent) times `10^k`, by
@@ -107,11 +108,13 @@ fn run(name: &str, scene: &str) -> Written {
 /// Every length of a particle record, in a fixed order.
 fn lengths(p: &ParticleRecord) -> Vec<f64> {
     match p {
-        ParticleRecord::Sphere { center, radius } => [&center[..], &[*radius]].concat(),
-        ParticleRecord::Ellipsoid {
+        ParticleRecord::Sphere(SphereRecord { center, radius }) => {
+            [&center[..], &[*radius]].concat()
+        }
+        ParticleRecord::Ellipsoid(EllipsoidRecord {
             center, semi_axes, ..
-        } => [&center[..], &semi_axes[..]].concat(),
-        ParticleRecord::Cylinder { .. } => panic!("no cylinders in these scenes"),
+        }) => [&center[..], &semi_axes[..]].concat(),
+        ParticleRecord::Cylinder(_) => panic!("no cylinders in these scenes"),
     }
 }
 
@@ -216,8 +219,8 @@ fn assert_scale_invariant(name: &str, template: &str) {
         assert_eq!(s.particles.len(), r.particles.len(), "{what}: particles");
         for (i, (p, q)) in s.particles.iter().zip(&r.particles).enumerate() {
             if let (
-                ParticleRecord::Ellipsoid { orientation: a, .. },
-                ParticleRecord::Ellipsoid { orientation: b, .. },
+                ParticleRecord::Ellipsoid(EllipsoidRecord { orientation: a, .. }),
+                ParticleRecord::Ellipsoid(EllipsoidRecord { orientation: b, .. }),
             ) = (p, q)
             {
                 assert_eq!(a, b, "{what}: orientation of particle {i}");

@@ -8,6 +8,7 @@ mod common;
 
 use common::{densepack, temp_dir};
 use densepack::io::packing::{ContainerRecord, Packing, ParticleRecord};
+use densepack::io::record::{CylinderRecord, EllipsoidRecord, SphereRecord};
 use densepack::verify::{verify, verify_with, VerifyOptions, TOLERANCE};
 use std::path::PathBuf;
 
@@ -20,7 +21,7 @@ fn periodic_box(len: [f64; 3]) -> ContainerRecord {
 }
 
 fn sphere(center: [f64; 3], radius: f64) -> ParticleRecord {
-    ParticleRecord::Sphere { center, radius }
+    ParticleRecord::Sphere(SphereRecord { center, radius })
 }
 
 /// Two unit spheres along x whose centres are `2 (1 + g)` apart: relative gap `g` (to
@@ -354,10 +355,12 @@ fn malformed_containers_exit_2_naming_the_field() {
 /// claimed gap is checked there as well (the certificates may be conservative, never lax).
 #[test]
 fn gap_claims_hold_for_ellipsoids_and_mixtures_too() {
-    let ball = |x: f64| ParticleRecord::Ellipsoid {
-        center: [x, 5.0, 5.0],
-        semi_axes: [1.0; 3],
-        orientation: [1.0, 0.0, 0.0, 0.0],
+    let ball = |x: f64| {
+        ParticleRecord::Ellipsoid(EllipsoidRecord {
+            center: [x, 5.0, 5.0],
+            semi_axes: [1.0; 3],
+            orientation: [1.0, 0.0, 0.0, 0.0],
+        })
     };
     for (surface_gap, overlaps, broken) in [
         (0.05, false, true),
@@ -376,11 +379,11 @@ fn gap_claims_hold_for_ellipsoids_and_mixtures_too() {
             (overlaps, broken),
             &format!("ellipsoids {surface_gap}"),
         );
-        let rod = ParticleRecord::Cylinder {
+        let rod = ParticleRecord::Cylinder(CylinderRecord {
             center: [3.0, 5.0, 5.0],
             radius: 1.0,
             half_axis: [0.0, 0.0, 2.0],
-        };
+        });
         let packing = Packing {
             min_gap: 0.1,
             ..Packing::new(
@@ -414,11 +417,11 @@ fn pathological_packings_end_with_a_verdict() {
     assert!(refused.contains("container.max[0]"), "{refused}");
     assert!(!verify(&huge).ok());
     // An ellipsoid of semi-axis 1 in a periodic box of edge 1e-3: 10⁹ images within reach.
-    let needle = ParticleRecord::Ellipsoid {
+    let needle = ParticleRecord::Ellipsoid(EllipsoidRecord {
         center: [5e-4; 3],
         semi_axes: [1.0, 1.0, 1.0],
         orientation: [1.0, 0.0, 0.0, 0.0],
-    };
+    });
     let tiny = Packing::new(periodic_box([1e-3; 3]), vec![needle]);
     let v = verify(&tiny);
     assert!(!v.ok());
@@ -428,11 +431,11 @@ fn pathological_packings_end_with_a_verdict() {
         v.violations
     );
     // The same for a cylinder in a mixture.
-    let rod = ParticleRecord::Cylinder {
+    let rod = ParticleRecord::Cylinder(CylinderRecord {
         center: [5e-4; 3],
         radius: 1.0,
         half_axis: [0.0, 0.0, 1.0],
-    };
+    });
     let v = verify(&Packing::new(periodic_box([1e-3; 3]), vec![rod]));
     assert!(v.violations.iter().any(|m| m.contains("not checked")));
     // Radii near f64::MAX: infinite cell widths, yet a verdict (they cross the walls).

@@ -4,6 +4,7 @@
 use crate::{os_error, value_error};
 use densepack::io::export::{self, voxel, ExportError, ExportOptions, Exported, Format};
 use densepack::io::packing::{Packing as Record, ParticleRecord};
+use densepack::io::record::{CylinderRecord, EllipsoidRecord, SphereRecord};
 use densepack::protocol::take_phase::{GradingSpec, TakeParams, TakePhase};
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3};
@@ -130,9 +131,9 @@ impl Packing {
     #[getter]
     fn centers<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
         self.rows(py, 3, |p| {
-            let (ParticleRecord::Sphere { center, .. }
-            | ParticleRecord::Cylinder { center, .. }
-            | ParticleRecord::Ellipsoid { center, .. }) = p;
+            let (ParticleRecord::Sphere(SphereRecord { center, .. })
+            | ParticleRecord::Cylinder(CylinderRecord { center, .. })
+            | ParticleRecord::Ellipsoid(EllipsoidRecord { center, .. })) = p;
             center.to_vec()
         })
     }
@@ -141,16 +142,18 @@ impl Packing {
     /// volume for an ellipsoid, (a·b·c)^(1/3).
     #[getter]
     fn radii<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        let r: Vec<f64> =
-            self.packing
-                .particles
-                .iter()
-                .map(|p| match p {
-                    ParticleRecord::Sphere { radius, .. }
-                    | ParticleRecord::Cylinder { radius, .. } => *radius,
-                    ParticleRecord::Ellipsoid { semi_axes: a, .. } => (a[0] * a[1] * a[2]).cbrt(),
-                })
-                .collect();
+        let r: Vec<f64> = self
+            .packing
+            .particles
+            .iter()
+            .map(|p| match p {
+                ParticleRecord::Sphere(SphereRecord { radius, .. })
+                | ParticleRecord::Cylinder(CylinderRecord { radius, .. }) => *radius,
+                ParticleRecord::Ellipsoid(EllipsoidRecord { semi_axes: a, .. }) => {
+                    (a[0] * a[1] * a[2]).cbrt()
+                }
+            })
+            .collect();
         PyArray1::from_vec(py, r)
     }
 
@@ -159,9 +162,9 @@ impl Packing {
     #[getter]
     fn semi_axes<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
         self.rows(py, 3, |p| match p {
-            ParticleRecord::Sphere { radius, .. } => vec![*radius; 3],
-            ParticleRecord::Ellipsoid { semi_axes, .. } => semi_axes.to_vec(),
-            ParticleRecord::Cylinder { .. } => vec![NAN; 3],
+            ParticleRecord::Sphere(SphereRecord { radius, .. }) => vec![*radius; 3],
+            ParticleRecord::Ellipsoid(EllipsoidRecord { semi_axes, .. }) => semi_axes.to_vec(),
+            ParticleRecord::Cylinder(_) => vec![NAN; 3],
         })
     }
 
@@ -171,9 +174,9 @@ impl Packing {
     #[getter]
     fn orientations<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
         self.rows(py, 4, |p| match p {
-            ParticleRecord::Sphere { .. } => vec![1.0, 0.0, 0.0, 0.0],
-            ParticleRecord::Ellipsoid { orientation, .. } => orientation.to_vec(),
-            ParticleRecord::Cylinder { .. } => vec![NAN; 4],
+            ParticleRecord::Sphere(_) => vec![1.0, 0.0, 0.0, 0.0],
+            ParticleRecord::Ellipsoid(EllipsoidRecord { orientation, .. }) => orientation.to_vec(),
+            ParticleRecord::Cylinder(_) => vec![NAN; 4],
         })
     }
 
@@ -182,8 +185,8 @@ impl Packing {
     #[getter]
     fn half_axes<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
         self.rows(py, 3, |p| match p {
-            ParticleRecord::Cylinder { half_axis, .. } => half_axis.to_vec(),
-            ParticleRecord::Sphere { .. } | ParticleRecord::Ellipsoid { .. } => vec![NAN; 3],
+            ParticleRecord::Cylinder(CylinderRecord { half_axis, .. }) => half_axis.to_vec(),
+            ParticleRecord::Sphere(_) | ParticleRecord::Ellipsoid(_) => vec![NAN; 3],
         })
     }
 
@@ -195,9 +198,9 @@ impl Packing {
             .particles
             .iter()
             .map(|p| match p {
-                ParticleRecord::Sphere { .. } => "sphere",
-                ParticleRecord::Ellipsoid { .. } => "ellipsoid",
-                ParticleRecord::Cylinder { .. } => "cylinder",
+                ParticleRecord::Sphere(_) => "sphere",
+                ParticleRecord::Ellipsoid(_) => "ellipsoid",
+                ParticleRecord::Cylinder(_) => "cylinder",
             })
             .collect();
         py.import("numpy")?.call_method1("asarray", (names,))

@@ -79,9 +79,10 @@
 //! - Q6 uses the centre–centre bonds shorter than 1.2 times the sum of the bounding radii.
 
 use super::CellGrid;
-use crate::io::export::{bounding_sphere, periodic_axes};
-use crate::io::packing::{ContainerRecord, Packing, ParticleRecord};
-use crate::verify::{contact_scale, shape_matrix};
+use crate::io::export::periodic_axes;
+use crate::io::packing::{ContainerRecord, Packing};
+use crate::io::record::Body as Checked;
+use crate::verify::contact_scale;
 use rand::{Rng, SeedableRng};
 
 /// The cut-offs of the plateau table: `10⁻¹⁴ … 10⁻⁴`.
@@ -104,9 +105,6 @@ const RATTLER_BELOW: u32 = 4;
 /// Contact directions closer than this (in sine or cosine) to a hemisphere's boundary count
 /// as on it: far below any angle a contact network resolves, far above rounding.
 const HEMISPHERE_TOLERANCE: f64 = 1e-12;
-
-/// Semi-axes this close (relative) make a spheroid: five degrees of freedom.
-const SPHEROID_TOLERANCE: f64 = 1e-9;
 
 /// A particle as the report sees it.
 #[derive(Clone, Copy, Debug)]
@@ -208,9 +206,9 @@ pub struct JammingReport {
 /// Why a packing has no jamming report.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum JammingError {
-    /// The report is for spheres and ellipsoids.
-    #[error("the jamming report is for spheres and ellipsoids (particle {0} is a cylinder)")]
-    Cylinder(usize),
+    /// The report is for spheres and ellipsoids (particle index and kind).
+    #[error("the jamming report is for spheres and ellipsoids (particle {0} is a {1})")]
+    Unsupported(usize, &'static str),
     /// Ellipsoids outside a box, or with a claimed gap (no scene makes either).
     #[error("ellipsoid packings are analysed in box containers without gap claims: {0}")]
     EllipsoidFile(String),
@@ -339,7 +337,7 @@ fn bodies_of(packing: &Packing) -> Result<Vec<Body>, JammingError> {
     let has_ellipsoids = packing
         .particles
         .iter()
-        .any(|p| matches!(p, ParticleRecord::Ellipsoid { .. }));
+        .any(|p| matches!(p.body(), Checked::Ellipsoid { .. }));
     if has_ellipsoids {
         // The scale factor of the gap is that of the bodies as written: a claimed gap would
         // turn them into parallel bodies, which are no ellipsoids.
@@ -360,31 +358,24 @@ fn bodies_of(packing: &Packing) -> Result<Vec<Body>, JammingError> {
         .particles
         .iter()
         .enumerate()
-        .map(|(i, p)| match p {
-            ParticleRecord::Sphere { center, radius } => Ok(Body {
-                center: *center,
+        .map(|(i, p)| match p.body() {
+            Checked::Ball { center, radius } => Ok(Body {
+                center,
                 radius: radius + 0.5 * packing.min_gap,
                 shape: None,
                 freedoms: 3,
             }),
-            ParticleRecord::Ellipsoid { semi_axes, .. } => {
-                let (center, radius) = bounding_sphere(p);
-                let mut a = *semi_axes;
-                a.sort_by(f64::total_cmp);
-                let close = |x: f64, y: f64| (y - x).abs() <= SPHEROID_TOLERANCE * y.abs();
-                let freedoms = match (close(a[0], a[1]), close(a[1], a[2])) {
-                    (true, true) => 3,
-                    (true, false) | (false, true) => 5,
-                    (false, false) => 6,
-                };
-                Ok(Body {
-                    center,
-                    radius,
-                    shape: shape_matrix(p),
-                    freedoms,
-                })
-            }
-            ParticleRecord::Cylinder { .. } => Err(JammingError::Cylinder(i)),
+            Checked::Ellipsoid {
+                center,
+                bound,
+                oriented,
+            } => Ok(Body {
+                center,
+                radius: bound,
+                shape: Some(oriented.m),
+                freedoms: 3 + p.rotations(),
+            }),
+            Checked::Convex(_) => Err(JammingError::Unsupported(i, p.kind())),
         })
         .collect()
 }

@@ -6,8 +6,9 @@
 pub mod jamming;
 pub mod structure;
 
-use crate::io::export::{bounding_sphere, container_bounds, periodic_axes, rotation_of};
+use crate::io::export::{container_bounds, periodic_axes};
 use crate::io::packing::{ContainerRecord, Packing, ParticleRecord};
+pub use crate::io::record::SectionCut;
 use crate::protocol::take_phase::GradingCurve;
 
 /// One bin of the gap histogram: particles whose nearest relative gap lies in `[lo, hi)`.
@@ -55,22 +56,6 @@ pub struct SievePoint {
     pub target: f64,
 }
 
-/// Diameter used for sieving a particle (the smallest square mesh it passes: for a sphere its
-/// diameter, for a cylinder its diameter too, passed axis first; for an ellipsoid twice its
-/// middle semi-axis).
-pub fn sieve_diameter(p: &ParticleRecord) -> f64 {
-    match p {
-        ParticleRecord::Sphere { radius, .. } | ParticleRecord::Cylinder { radius, .. } => {
-            2.0 * radius
-        }
-        ParticleRecord::Ellipsoid { semi_axes, .. } => {
-            let mut a = *semi_axes;
-            a.sort_by(f64::total_cmp);
-            2.0 * a[1]
-        }
-    }
-}
-
 /// The sieve curve of the packing against `curve` cut off at `d_min`, at half-octave sieves
 /// `d_min · 2^(k/2)` up to the curve's `d_max`, plus the curve's own sieves in that range.
 /// Returns the points and the largest `|passing − target|`.
@@ -92,7 +77,7 @@ pub fn sieve_curve(packing: &Packing, curve: &GradingCurve, d_min: f64) -> (Vec<
     let mut grains: Vec<(f64, f64)> = packing
         .particles
         .iter()
-        .map(|p| (sieve_diameter(p), crate::io::export::particle_volume(p)))
+        .map(|p| (p.sieve_diameter(), p.volume()))
         .collect();
     grains.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
     let total: f64 = grains.iter().map(|g| g.1).sum();
@@ -116,7 +101,7 @@ pub fn sieve_curve(packing: &Packing, curve: &GradingCurve, d_min: f64) -> (Vec<
     (points, worst)
 }
 
-/// One bin of the size histogram: particles whose sieve diameter ([`sieve_diameter`]) lies
+/// One bin of the size histogram: particles whose sieve diameter ([`ParticleRecord::sieve_diameter`]) lies
 /// in `[lo, hi)` (the last bin includes `hi`).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct SizeBin {
@@ -138,7 +123,11 @@ pub fn size_histogram(packing: &Packing, bins: usize) -> Vec<SizeBin> {
 /// [`size_histogram`] and the bin of each particle (index into the bins, in the packing's
 /// order).
 pub fn size_classes(packing: &Packing, bins: usize) -> (Vec<SizeBin>, Vec<usize>) {
-    let sizes: Vec<f64> = packing.particles.iter().map(sieve_diameter).collect();
+    let sizes: Vec<f64> = packing
+        .particles
+        .iter()
+        .map(ParticleRecord::sieve_diameter)
+        .collect();
     let (lo, hi) = sizes
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &d| {
@@ -297,147 +286,6 @@ pub fn section_axes(axis: usize) -> [usize; 2] {
     }
 }
 
-/// What a section plane cuts out of one particle (or of one of its periodic images), in the
-/// plane's coordinates ([`section_axes`]).
-#[derive(Clone, Debug, PartialEq)]
-pub enum SectionCut {
-    /// A sphere cut as a disc.
-    Disc {
-        /// Centre.
-        center: [f64; 2],
-        /// Radius `√(r² − t²)` at distance `t` of the plane from the sphere's centre.
-        radius: f64,
-        /// Index of the particle in the packing.
-        particle: usize,
-    },
-    /// An ellipsoid cut as an ellipse.
-    Ellipse {
-        /// Centre.
-        center: [f64; 2],
-        /// Semi-axes.
-        semi_axes: [f64; 2],
-        /// Angle of the first semi-axis from the horizontal axis (radians).
-        angle: f64,
-        /// Index of the particle in the packing.
-        particle: usize,
-    },
-    /// A finite cylinder cut as a convex polygon: the plane's section of its side sampled at
-    /// [`CYLINDER_SECTION_SAMPLES`] angles (an ellipse's arc, inscribed) and the chords of its
-    /// end disks, in counter-clockwise order.
-    Polygon {
-        /// Vertices.
-        vertices: Vec<[f64; 2]>,
-        /// Index of the particle in the packing.
-        particle: usize,
-    },
-}
-
-/// Angles at which a cylinder's side is sampled for its section polygon.
-pub const CYLINDER_SECTION_SAMPLES: usize = 96;
-
-impl SectionCut {
-    /// Index of the particle cut.
-    pub fn particle(&self) -> usize {
-        match self {
-            Self::Disc { particle, .. }
-            | Self::Ellipse { particle, .. }
-            | Self::Polygon { particle, .. } => *particle,
-        }
-    }
-
-    /// Centre of the cut (of its bounding box, for a polygon).
-    pub fn center(&self) -> [f64; 2] {
-        match self {
-            Self::Disc { center, .. } | Self::Ellipse { center, .. } => *center,
-            Self::Polygon { vertices, .. } => {
-                let (lo, hi) = polygon_box(vertices);
-                [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])]
-            }
-        }
-    }
-
-    /// Half-widths of the cut's axis-aligned bounding box.
-    pub fn half_extent(&self) -> [f64; 2] {
-        match self {
-            Self::Disc { radius, .. } => [*radius; 2],
-            Self::Ellipse {
-                semi_axes: [a, b],
-                angle,
-                ..
-            } => {
-                let (s, c) = angle.sin_cos();
-                [
-                    ((a * c).powi(2) + (b * s).powi(2)).sqrt(),
-                    ((a * s).powi(2) + (b * c).powi(2)).sqrt(),
-                ]
-            }
-            Self::Polygon { vertices, .. } => {
-                let (lo, hi) = polygon_box(vertices);
-                [0.5 * (hi[0] - lo[0]), 0.5 * (hi[1] - lo[1])]
-            }
-        }
-    }
-
-    /// The same cut moved by `offset`.
-    fn shifted(&self, offset: [f64; 2]) -> Self {
-        let mut cut = self.clone();
-        match &mut cut {
-            Self::Disc { center, .. } | Self::Ellipse { center, .. } => {
-                center[0] += offset[0];
-                center[1] += offset[1];
-            }
-            Self::Polygon { vertices, .. } => {
-                for p in vertices {
-                    p[0] += offset[0];
-                    p[1] += offset[1];
-                }
-            }
-        }
-        cut
-    }
-}
-
-/// The axis-aligned bounding box `(lower, upper)` of a polygon's vertices.
-fn polygon_box(vertices: &[[f64; 2]]) -> ([f64; 2], [f64; 2]) {
-    vertices.iter().fold(
-        ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
-        |(lo, hi), p| {
-            (
-                [lo[0].min(p[0]), lo[1].min(p[1])],
-                [hi[0].max(p[0]), hi[1].max(p[1])],
-            )
-        },
-    )
-}
-
-/// The convex hull of `points`, counter-clockwise (Andrew's monotone chain); collinear
-/// points are dropped. Written here: the only 2-D geometry the project needs, where a
-/// crate (parry2d, geo) would add a dependency tree for twenty lines.
-fn convex_hull(mut points: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
-    points.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
-    points.dedup();
-    if points.len() < 3 {
-        return points;
-    }
-    let cross = |o: [f64; 2], a: [f64; 2], b: [f64; 2]| {
-        (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-    };
-    let mut hull: Vec<[f64; 2]> = Vec::with_capacity(2 * points.len());
-    for pass in [points.clone(), points.into_iter().rev().collect()] {
-        let floor = hull.len();
-        for p in pass {
-            while hull.len() >= floor + 2
-                && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
-            {
-                hull.pop();
-            }
-            hull.push(p);
-        }
-        hull.pop();
-    }
-    hull
-}
-
 /// The outline of the container in a section plane.
 #[derive(Clone, Debug, PartialEq)]
 pub enum SectionOutline {
@@ -486,12 +334,9 @@ pub enum SectionError {
 }
 
 /// The section of `packing` by the plane `x[axis] = at` (`axis`: 0 = x, 1 = y, 2 = z).
-/// A sphere of radius `r` at distance `t` from the plane is cut as a disc of radius
-/// `√(r² − t²)`. An ellipsoid `(x − c)ᵀ A (x − c) ≤ 1` with `A = R diag(a⁻²) Rᵀ` is cut as
-/// the ellipse `(p − p*)ᵀ M (p − p*) ≤ ρ`, where `M` is the in-plane block of `A`, `b` its
-/// in-plane column on the normal axis, `p* = −t M⁻¹ b` and `ρ = 1 − t² (A_nn − bᵀ M⁻¹ b)`
-/// (completing the square in the in-plane coordinates); its semi-axes are `√(ρ/λ)` for the
-/// eigenvalues `λ` of `M`.
+/// Each particle (and each periodic image the plane may cut) is cut by
+/// [`ParticleRecord::plane_cut`]: a sphere as a disc, an ellipsoid as an ellipse, a cylinder
+/// as a polygon.
 pub fn section(packing: &Packing, axis: usize, at: f64) -> Result<Section, SectionError> {
     let [h, v] = section_axes(axis);
     let (lo, hi) = container_bounds(&packing.container);
@@ -543,10 +388,10 @@ pub fn section(packing: &Packing, axis: usize, at: f64) -> Result<Section, Secti
     let mut cuts = Vec::new();
     for (index, p) in packing.particles.iter().enumerate() {
         for &m in images(axis) {
-            let (center, _) = bounding_sphere(p);
+            let center = p.center();
             // Distance of the plane from the (image's) centre along the normal.
             let t = at - (center[axis] + m * length[axis]);
-            if let Some(cut) = plane_cut(p, index, [center[h], center[v]], [h, v, axis], t) {
+            if let Some(cut) = p.plane_cut(index, [center[h], center[v]], [h, v, axis], t) {
                 // In-plane images of a cut that crosses a periodic face.
                 let extent = cut.half_extent();
                 let c = cut.center();
@@ -571,199 +416,9 @@ pub fn section(packing: &Packing, axis: usize, at: f64) -> Result<Section, Secti
     Ok(Section { outline, cuts })
 }
 
-/// The cut of particle `p` by a plane at signed distance `t` from its centre along axis
-/// `axes[2]`, or `None` when the plane misses it; `center` is the particle's centre in the
-/// plane coordinates `axes[0], axes[1]`.
-fn plane_cut(
-    p: &ParticleRecord,
-    particle: usize,
-    center: [f64; 2],
-    axes: [usize; 3],
-    t: f64,
-) -> Option<SectionCut> {
-    match p {
-        ParticleRecord::Sphere { radius, .. } => {
-            let r2 = radius * radius - t * t;
-            (r2 > 0.0).then(|| SectionCut::Disc {
-                center,
-                radius: r2.sqrt(),
-                particle,
-            })
-        }
-        ParticleRecord::Ellipsoid {
-            semi_axes,
-            orientation,
-            ..
-        } => {
-            let r = rotation_of(orientation).to_rotation_matrix();
-            let inverse_squares = nalgebra::Matrix3::from_diagonal(&nalgebra::Vector3::new(
-                semi_axes[0].powi(-2),
-                semi_axes[1].powi(-2),
-                semi_axes[2].powi(-2),
-            ));
-            let a = r.matrix() * inverse_squares * r.matrix().transpose();
-            let [h, v, n] = axes;
-            let m = nalgebra::Matrix2::new(a[(h, h)], a[(h, v)], a[(v, h)], a[(v, v)]);
-            let b = nalgebra::Vector2::new(a[(h, n)], a[(v, n)]);
-            // M is positive definite (a block of a positive definite matrix).
-            let m_inv_b = m.cholesky()?.solve(&b);
-            let rho = 1.0 - t * t * (a[(n, n)] - b.dot(&m_inv_b));
-            if rho <= 0.0 {
-                return None;
-            }
-            let offset = -t * m_inv_b;
-            let eigen = nalgebra::SymmetricEigen::new(m);
-            let first = eigen.eigenvectors.column(0);
-            Some(SectionCut::Ellipse {
-                center: [center[0] + offset[0], center[1] + offset[1]],
-                semi_axes: [
-                    (rho / eigen.eigenvalues[0]).sqrt(),
-                    (rho / eigen.eigenvalues[1]).sqrt(),
-                ],
-                angle: first[1].atan2(first[0]),
-                particle,
-            })
-        }
-        ParticleRecord::Cylinder {
-            radius, half_axis, ..
-        } => cylinder_cut(*radius, *half_axis, particle, center, axes, t),
-    }
-}
-
-/// The section of a finite cylinder (radius `r`, half axis `l`, centre at the in-plane
-/// point `center`) by the plane at signed distance `t` from its centre along `axes[2]`.
-/// Its points are `s·â + u·e₁ + v·e₂` from the centre, `|s| ≤ |l|`, `u² + v² ≤ r²`
-/// (`â = l/|l|`, `e₁, e₂ ⊥ â`). The boundary is where the plane meets the side (for each
-/// angle φ, `s = (t − r (cos φ e₁ₙ + sin φ e₂ₙ))/âₙ` if `|s| ≤ |l|`) and the end disks
-/// (the chord `(u, v)·w = t ∓ |l| âₙ`, `w = (e₁ₙ, e₂ₙ)`, inside the circle); the section is
-/// their convex hull. Along the axis (`âₙ = 0`) the side gives straight lines whose ends
-/// are the chords' ends: the hull of the chords alone is the exact rectangle.
-fn cylinder_cut(
-    r: f64,
-    l: [f64; 3],
-    particle: usize,
-    center: [f64; 2],
-    axes: [usize; 3],
-    t: f64,
-) -> Option<SectionCut> {
-    let axis = nalgebra::Vector3::from(l);
-    let length = axis.norm();
-    let a = axis / length;
-    let helper = if a.x.abs() < 0.9 {
-        nalgebra::Vector3::x()
-    } else {
-        nalgebra::Vector3::y()
-    };
-    let e1 = a.cross(&helper).normalize();
-    let e2 = a.cross(&e1);
-    let [h, v, n] = axes;
-    let in_plane = |p: nalgebra::Vector3<f64>| [center[0] + p[h], center[1] + p[v]];
-    let mut points = Vec::new();
-    if a[n].abs() > 1e-12 {
-        for k in 0..CYLINDER_SECTION_SAMPLES {
-            let phi = std::f64::consts::TAU * k as f64 / CYLINDER_SECTION_SAMPLES as f64;
-            let radial = r * (phi.cos() * e1 + phi.sin() * e2);
-            let s = (t - radial[n]) / a[n];
-            if s.abs() <= length {
-                points.push(in_plane(s * a + radial));
-            }
-        }
-    }
-    let w = nalgebra::Vector2::new(e1[n], e2[n]);
-    let q = w.norm();
-    if q > 1e-12 {
-        for end in [-length, length] {
-            // The chord of this end disk: (u, v)·w = t − end·âₙ.
-            let offset = (t - end * a[n]) / q;
-            if offset.abs() <= r {
-                let foot = offset * w / q;
-                let half = (r * r - offset * offset).sqrt();
-                let along = nalgebra::Vector2::new(-w[1], w[0]) / q;
-                for sign in [-1.0, 1.0] {
-                    let uv = foot + sign * half * along;
-                    points.push(in_plane(end * a + uv[0] * e1 + uv[1] * e2));
-                }
-            }
-        }
-    }
-    let vertices = convex_hull(points);
-    (vertices.len() >= 3).then_some(SectionCut::Polygon { vertices, particle })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn polygon(cut: Option<SectionCut>) -> Vec<[f64; 2]> {
-        match cut {
-            Some(SectionCut::Polygon { vertices, .. }) => vertices,
-            other => panic!("a polygon, got {other:?}"),
-        }
-    }
-
-    /// Shoelace area of a counter-clockwise polygon.
-    fn area(v: &[[f64; 2]]) -> f64 {
-        (0..v.len())
-            .map(|k| {
-                let (p, q) = (v[k], v[(k + 1) % v.len()]);
-                p[0] * q[1] - q[0] * p[1]
-            })
-            .sum::<f64>()
-            / 2.0
-    }
-
-    #[test]
-    fn cylinder_sections_are_the_exact_disc_rectangle_and_ellipse() {
-        let cylinder = |half_axis: [f64; 3]| ParticleRecord::Cylinder {
-            center: [0.0; 3],
-            radius: 0.5,
-            half_axis,
-        };
-        let k = CYLINDER_SECTION_SAMPLES as f64;
-        let inscribed = k / (2.0 * std::f64::consts::PI) * (2.0 * std::f64::consts::PI / k).sin();
-        // Across the axis (z = 0.3 of a cylinder along z): the disc of radius 0.5, as the
-        // regular inscribed polygon, every vertex on the circle.
-        let v = polygon(plane_cut(
-            &cylinder([0.0, 0.0, 1.0]),
-            0,
-            [2.0, 3.0],
-            [0, 1, 2],
-            0.3,
-        ));
-        let exact = std::f64::consts::PI * 0.25 * inscribed;
-        assert!((area(&v) / exact - 1.0).abs() < 1e-12, "{}", area(&v));
-        for p in &v {
-            assert!(((p[0] - 2.0).hypot(p[1] - 3.0) - 0.5).abs() < 1e-12);
-        }
-        // Along the axis (x = 0.3): the rectangle 2·√(0.25 − 0.09) wide, 2 high.
-        let v = polygon(plane_cut(
-            &cylinder([0.0, 0.0, 1.0]),
-            0,
-            [0.0, 0.0],
-            [1, 2, 0],
-            0.3,
-        ));
-        assert_eq!(v.len(), 4, "{v:?}");
-        assert!((area(&v) - 2.0 * 0.4 * 2.0).abs() < 1e-12, "{}", area(&v));
-        // Tilted by 30° from the plane normal and cut across its side only: an ellipse of
-        // area π r² / cos 30°, semi-axes r and r / cos 30° (inscribed polygon: within 0.1 %).
-        let (s, c) = (30f64.to_radians().sin(), 30f64.to_radians().cos());
-        let v = polygon(plane_cut(
-            &cylinder([3.0 * s, 0.0, 3.0 * c]),
-            0,
-            [0.0, 0.0],
-            [0, 1, 2],
-            0.2,
-        ));
-        let ellipse = std::f64::consts::PI * 0.25 / c;
-        assert!(
-            (area(&v) / ellipse - 1.0).abs() < 1e-3,
-            "{} {ellipse}",
-            area(&v)
-        );
-        // A plane past the end disks misses it.
-        assert!(plane_cut(&cylinder([0.0, 0.0, 1.0]), 0, [0.0, 0.0], [0, 1, 2], 1.2).is_none());
-    }
 
     #[test]
     fn gap_histogram_puts_each_gap_in_its_decade() {

@@ -32,9 +32,10 @@
 //!   intersections ([`sphere_cylinder_volume`]).
 
 use super::jamming::JammingReport;
-use super::{sieve_diameter, size_classes, CellGrid};
-use crate::io::export::{container_bounds, packing_fraction, particle_volume, periodic_axes};
+use super::{size_classes, CellGrid};
+use crate::io::export::{container_bounds, packing_fraction, periodic_axes};
 use crate::io::packing::{ContainerRecord, Packing, ParticleRecord};
+use crate::io::record::SphereRecord;
 use std::f64::consts::PI;
 
 /// Most reference particles of g(r) (see the module docs).
@@ -208,7 +209,12 @@ pub fn structure_report(
         Err(e) => return Err(e),
     };
     let n = packing.particles.len();
-    let mean_diameter = packing.particles.iter().map(sieve_diameter).sum::<f64>() / n.max(1) as f64;
+    let mean_diameter = packing
+        .particles
+        .iter()
+        .map(ParticleRecord::sieve_diameter)
+        .sum::<f64>()
+        / n.max(1) as f64;
     let wall_profiles = match wall_profiles(packing) {
         Ok(p) => p,
         Err(e) => {
@@ -238,7 +244,7 @@ pub fn radial_distribution(
     let mut radii = Vec::with_capacity(packing.particles.len());
     for (i, p) in packing.particles.iter().enumerate() {
         match p {
-            ParticleRecord::Sphere { center, radius } => {
+            ParticleRecord::Sphere(SphereRecord { center, radius }) => {
                 centers.push(*center);
                 radii.push(*radius);
             }
@@ -426,13 +432,13 @@ fn peaks(centres: &[f64], g: &[f64]) -> (Option<Peak>, Option<SecondPeak>) {
 /// The diameter classes of the module docs.
 fn size_class_table(packing: &Packing, jamming: &JammingReport) -> Vec<SizeClass> {
     let (bins, class) = size_classes(packing, SIZE_CLASSES);
-    let total: f64 = packing.particles.iter().map(particle_volume).sum();
+    let total: f64 = packing.particles.iter().map(ParticleRecord::volume).sum();
     let mut volume = vec![0.0; bins.len()];
     let mut contacts = vec![0u64; bins.len()];
     let mut rattlers = vec![0usize; bins.len()];
     for (i, p) in packing.particles.iter().enumerate() {
         let k = class[i];
-        volume[k] += particle_volume(p);
+        volume[k] += p.volume();
         contacts[k] += u64::from(jamming.contact_numbers.get(i).copied().unwrap_or(0));
         rattlers[k] += usize::from(jamming.rattlers.get(i).copied().unwrap_or(false));
     }
@@ -561,7 +567,9 @@ fn wall_profiles(packing: &Packing) -> Result<Vec<WallProfile>, String> {
     let mut spheres = Vec::with_capacity(packing.particles.len());
     for (i, p) in packing.particles.iter().enumerate() {
         match p {
-            ParticleRecord::Sphere { center, radius } => spheres.push((*center, *radius)),
+            ParticleRecord::Sphere(SphereRecord { center, radius }) => {
+                spheres.push((*center, *radius))
+            }
             _ => {
                 return Err(format!(
                     "wall profiles are computed for sphere packings (particle {i} is not a sphere)"

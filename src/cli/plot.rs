@@ -8,9 +8,9 @@
 
 use clap::{Args, Subcommand, ValueEnum};
 use densepack::analysis::{
-    section, section_axes, sieve_diameter, size_histogram, SectionCut, SectionOutline, SievePoint,
+    section, section_axes, size_histogram, SectionCut, SectionOutline, SievePoint,
 };
-use densepack::io::packing::{write_atomically, Packing};
+use densepack::io::packing::{write_atomically, Packing, ParticleRecord};
 use densepack::protocol::take_phase::GradingSpec;
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -459,7 +459,11 @@ fn section_svg(packing: &Packing, axis: usize, at: f64) -> Result<String, PlotEr
         margin + left + plot_w as u32 + margin + bar,
         title + plot_h as u32 + bottom + margin,
     );
-    let sizes: Vec<f64> = packing.particles.iter().map(sieve_diameter).collect();
+    let sizes: Vec<f64> = packing
+        .particles
+        .iter()
+        .map(ParticleRecord::sieve_diameter)
+        .collect();
     let smallest = sizes.iter().copied().fold(f64::INFINITY, f64::min);
     let largest = sizes.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let one_size = largest <= smallest;

@@ -1,7 +1,7 @@
 //! `densepack verify PACKING.json`: the independent check and a description of the packing.
 
-use densepack::analysis::{gap_histogram, sieve_curve, sieve_diameter, SievePoint};
-use densepack::io::packing::Packing;
+use densepack::analysis::{gap_histogram, sieve_curve, SievePoint};
+use densepack::io::packing::{Packing, ParticleRecord};
 use densepack::protocol::take_phase::GradingCurve;
 use densepack::verify::VerifyOptions;
 use std::path::Path;
@@ -29,7 +29,7 @@ pub fn sieve_against_curve(
     let smallest = packing
         .particles
         .iter()
-        .map(sieve_diameter)
+        .map(ParticleRecord::sieve_diameter)
         .fold(f64::INFINITY, f64::min);
     let d_min = d_min.unwrap_or(smallest);
     if !(d_min > 0.0 && d_min < curve.d_max()) {

@@ -17,6 +17,7 @@
 use crate::io::packing::{
     ContainerRecord, ImportedFrom, Packing, PackingError, ParticleRecord, Provenance, Timings,
 };
+use crate::io::record::SphereRecord;
 use std::path::Path;
 
 /// A file format `densepack import` reads (`--from`).
@@ -252,10 +253,10 @@ fn sphere(
     field: &str,
 ) -> Result<ParticleRecord, Bad> {
     if diameter > 0.0 {
-        Ok(ParticleRecord::Sphere {
+        Ok(ParticleRecord::Sphere(SphereRecord {
             center,
             radius: 0.5 * diameter,
-        })
+        }))
     } else {
         Err(bad(line, field, format!("= {diameter} must be > 0")))
     }
@@ -715,14 +716,14 @@ mod tests {
         assert_eq!(
             r.particles,
             vec![
-                ParticleRecord::Sphere {
+                ParticleRecord::Sphere(SphereRecord {
                     center: [1.0, 2.0, 3.0],
                     radius: 1.0
-                },
-                ParticleRecord::Sphere {
+                }),
+                ParticleRecord::Sphere(SphereRecord {
                     center: [0.5, 0.5, 0.5],
                     radius: 0.5
-                }
+                })
             ]
         );
     }
@@ -773,10 +774,10 @@ mod tests {
         assert_eq!(r.particles.len(), 2);
         assert_eq!(
             r.particles[0],
-            ParticleRecord::Sphere {
+            ParticleRecord::Sphere(SphereRecord {
                 center: [1.0, 2.0, 3.0],
                 radius: 0.75
-            }
+            })
         );
         assert_eq!(
             r.container,
@@ -833,10 +834,10 @@ mod tests {
         let r = read_lammps_dump(DUMP).unwrap();
         assert_eq!(
             r.particles,
-            vec![ParticleRecord::Sphere {
+            vec![ParticleRecord::Sphere(SphereRecord {
                 center: [1.0, 2.0, 3.0],
                 radius: 0.25
-            }]
+            })]
         );
         assert_eq!(
             r.container,
@@ -850,10 +851,10 @@ mod tests {
         let r = read_lammps_dump(first).unwrap();
         assert_eq!(
             r.particles,
-            vec![ParticleRecord::Sphere {
+            vec![ParticleRecord::Sphere(SphereRecord {
                 center: [2.0, 1.0, 4.0],
                 radius: 0.5
-            }]
+            })]
         );
     }
 

@@ -4,5 +4,6 @@ pub mod checkpoint;
 pub mod export;
 pub mod import;
 pub mod packing;
+pub mod record;
 pub mod scene;
 pub mod units;

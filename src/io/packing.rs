@@ -13,6 +13,8 @@
 //! Floats are written with full round-trip precision (shortest representation that parses
 //! back to the same `f64`); periodic centres are wrapped into the box.
 
+use super::record::placed;
+pub use super::record::ParticleRecord;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -38,11 +40,6 @@ pub enum ContainerRecord {
         /// Height.
         height: f64,
     },
-}
-
-/// `origin + scale(p)`, coordinate by coordinate.
-fn placed(p: [f64; 3], origin: [f64; 3], scale: &impl Fn(f64) -> f64) -> [f64; 3] {
-    std::array::from_fn(|k| origin[k] + scale(p[k]))
 }
 
 impl ContainerRecord {
@@ -114,72 +111,6 @@ impl ContainerRecord {
                 base_center: placed(base_center, origin, &scale),
                 radius: scale(radius),
                 height: scale(height),
-            },
-        }
-    }
-}
-
-/// One particle of a packing.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
-pub enum ParticleRecord {
-    /// A sphere.
-    Sphere {
-        /// Centre.
-        center: [f64; 3],
-        /// Radius.
-        radius: f64,
-    },
-    /// A finite flat-ended cylinder (sphere + cylinder mixtures): the body within `radius`
-    /// of the segment from `center − half_axis` to `center + half_axis`, cut by the planes
-    /// of its two end disks.
-    Cylinder {
-        /// Centre.
-        center: [f64; 3],
-        /// Radius.
-        radius: f64,
-        /// Half axis: from the centre to the centre of one end disk.
-        half_axis: [f64; 3],
-    },
-    /// An ellipsoid: `{"type": "ellipsoid", "center": [..], "semi_axes": [a, b, c],
-    /// "orientation": [w, x, y, z]}`.
-    Ellipsoid {
-        /// Centre.
-        center: [f64; 3],
-        /// Semi-axes along the body x, y, z axes.
-        semi_axes: [f64; 3],
-        /// Unit quaternion `[w, x, y, z]` rotating the body frame (whose axes carry the
-        /// semi-axes) into the world frame.
-        orientation: [f64; 4],
-    },
-}
-
-impl ParticleRecord {
-    /// The particle in another frame (see [`ContainerRecord::in_frame`]); orientations are
-    /// unchanged.
-    pub fn in_frame(self, origin: [f64; 3], scale: impl Fn(f64) -> f64) -> Self {
-        match self {
-            Self::Sphere { center, radius } => Self::Sphere {
-                center: placed(center, origin, &scale),
-                radius: scale(radius),
-            },
-            Self::Cylinder {
-                center,
-                radius,
-                half_axis,
-            } => Self::Cylinder {
-                center: placed(center, origin, &scale),
-                radius: scale(radius),
-                half_axis: half_axis.map(&scale),
-            },
-            Self::Ellipsoid {
-                center,
-                semi_axes,
-                orientation,
-            } => Self::Ellipsoid {
-                center: placed(center, origin, &scale),
-                semi_axes: semi_axes.map(&scale),
-                orientation,
             },
         }
     }

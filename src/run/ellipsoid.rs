@@ -7,6 +7,7 @@ use super::stages::{kernel_config, Placed, StagesDone};
 use super::{dispatch_box, Job, RunError, RunOutcome, SceneContainer, Seeded, ShapeRun};
 use crate::boundary::Boundary;
 use crate::io::packing::ParticleRecord;
+use crate::io::record::EllipsoidRecord;
 use crate::io::scene::{ContainerSpec, EllipsoidSpec, Scene, StartPacking};
 use crate::kernel::{Edmd, Progress, StageReport};
 use crate::protocol::rsa::rsa_spheres;
@@ -139,11 +140,11 @@ impl ShapeRun for Ellipsoids {
             .map(|&k| {
                 let p = &kernel.particles()[k as usize];
                 let q = p.spin.orientation;
-                ParticleRecord::Ellipsoid {
+                ParticleRecord::Ellipsoid(EllipsoidRecord {
                     center: p.pos.into(),
                     semi_axes: p.shape.semi_axes(0.0).into(),
                     orientation: [q.w, q.i, q.j, q.k],
-                }
+                })
             })
             .collect();
         let volume = kernel.packing_fraction_at(0.0) * original.volume();
@@ -181,7 +182,7 @@ impl ShapeRun for Ellipsoids {
 /// ratio `ρ = λ_max/λ_min` of its eigenvalues (1 for perfect isotropy, `T = I/3`).
 pub fn orientation_tensor(particles: &[ParticleRecord]) -> ([[f64; 3]; 3], f64) {
     axis_tensor(particles.iter().filter_map(|p| match p {
-        ParticleRecord::Ellipsoid { orientation, .. } => {
+        ParticleRecord::Ellipsoid(EllipsoidRecord { orientation, .. }) => {
             let [w, x, y, z] = *orientation;
             Some(UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z)) * Vec3::x())
         }

@@ -6,6 +6,7 @@ use super::{RunError, RunOutcome, SceneContainer};
 use crate::boundary::Boundary;
 use crate::geometry::cylinder::Shape;
 use crate::io::packing::{Packing, PackingStats, ParticleRecord, Timings};
+use crate::io::record::{CylinderRecord, SphereRecord};
 use crate::protocol::mixture::Rve;
 use crate::verify::verify;
 use rand::SeedableRng;
@@ -54,15 +55,15 @@ fn records(rve: &Rve) -> Vec<ParticleRecord> {
             let mut c = b.center();
             rve.boundary.wrap(&mut c);
             match b {
-                Shape::Sphere(s) => ParticleRecord::Sphere {
+                Shape::Sphere(s) => ParticleRecord::Sphere(SphereRecord {
                     center: c.into(),
                     radius: s.radius,
-                },
-                Shape::Cylinder(cy) => ParticleRecord::Cylinder {
+                }),
+                Shape::Cylinder(cy) => ParticleRecord::Cylinder(CylinderRecord {
                     center: c.into(),
                     radius: cy.radius,
                     half_axis: cy.half_axis.into(),
-                },
+                }),
             }
         })
         .collect()

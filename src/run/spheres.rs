@@ -152,7 +152,7 @@ fn start_centres<B: Boundary + SceneContainer>(
         .centres
         .iter()
         .zip(&start.radii)
-        .map(|(c, &radius)| crate::io::packing::ParticleRecord::Sphere { center: *c, radius })
+        .map(|(c, &radius)| crate::io::packing::ParticleRecord::sphere(*c, radius))
         .collect();
     let check = crate::verify::verify(&Packing::new(boundary.record(), particles));
     let refuse = |what: String| {

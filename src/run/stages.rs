@@ -10,6 +10,7 @@ use crate::io::checkpoint::{write_checkpoint, CheckpointFile, CheckpointHeader};
 use crate::io::packing::{
     ContainerRecord, Packing, PackingStats, ParticleRecord, Provenance, Timings,
 };
+use crate::io::record::SphereRecord;
 use crate::io::scene::{GrowthKind, Scene, StageSpec};
 use crate::io::units::Units;
 use crate::kernel::{
@@ -388,10 +389,10 @@ impl Placed {
             .zip(radii)
             .map(|(mut c, &r)| {
                 boundary.wrap(&mut c);
-                ParticleRecord::Sphere {
+                ParticleRecord::Sphere(SphereRecord {
                     center: c.into(),
                     radius: r,
-                }
+                })
             })
             .collect();
         let volume = radii

@@ -2,6 +2,7 @@
 #![allow(dead_code)] // each test file uses a subset
 
 use densepack::io::packing::{Packing, ParticleRecord};
+use densepack::io::record::{CylinderRecord, EllipsoidRecord, SphereRecord};
 use std::path::PathBuf;
 
 /// Runs the `densepack` binary with `args`. The binary exists with the `cli` feature only; the
@@ -65,7 +66,7 @@ pub fn assert_no_overlap(packing: &Packing) -> f64 {
         .particles
         .iter()
         .map(|p| match p {
-            ParticleRecord::Sphere { center, radius } => (*center, *radius),
+            ParticleRecord::Sphere(SphereRecord { center, radius }) => (*center, *radius),
             other => panic!("a sphere packing was expected, got {other:?}"),
         })
         .collect();
@@ -130,7 +131,7 @@ pub fn assert_gap_and_containment(packing: &Packing) -> f64 {
         .particles
         .iter()
         .map(|p| match p {
-            ParticleRecord::Sphere { center, radius } => (*center, *radius),
+            ParticleRecord::Sphere(SphereRecord { center, radius }) => (*center, *radius),
             other => panic!("a sphere packing was expected, got {other:?}"),
         })
         .collect();
@@ -209,13 +210,13 @@ pub fn recomputed_phi(packing: &Packing) -> f64 {
         .particles
         .iter()
         .map(|p| match p {
-            ParticleRecord::Sphere { radius, .. } => 4.0 / 3.0 * PI * radius.powi(3),
-            ParticleRecord::Ellipsoid { semi_axes, .. } => {
+            ParticleRecord::Sphere(SphereRecord { radius, .. }) => 4.0 / 3.0 * PI * radius.powi(3),
+            ParticleRecord::Ellipsoid(EllipsoidRecord { semi_axes, .. }) => {
                 4.0 / 3.0 * PI * semi_axes[0] * semi_axes[1] * semi_axes[2]
             }
-            ParticleRecord::Cylinder {
+            ParticleRecord::Cylinder(CylinderRecord {
                 radius, half_axis, ..
-            } => {
+            }) => {
                 let length = 2.0 * half_axis.iter().map(|x| x * x).sum::<f64>().sqrt();
                 PI * radius * radius * length
             }

@@ -18,11 +18,11 @@
 //! Partial-volume images have no Abaqus form: [`Labels::PartialVolume`] is refused.
 
 use super::voxel::{
-    image_and_summary, phase_id, Labels, VoxelImage, VoxelSummary, OUTSIDE_PARTICLE, OUTSIDE_PHASE,
-    PHASE_NAMES,
+    image_and_summary, Labels, VoxelImage, VoxelSummary, OUTSIDE_PARTICLE, OUTSIDE_PHASE,
 };
 use super::{provenance_line, ExportError};
 use crate::io::packing::{ContainerRecord, Packing};
+use crate::io::record::PHASE_NAMES;
 use std::borrow::Cow;
 use std::io::Write;
 use std::path::Path;
@@ -65,7 +65,7 @@ pub fn write_inp(
                 .map(|&l| match l {
                     0 => 0,
                     OUTSIDE_PARTICLE => OUTSIDE_PHASE,
-                    l => phase_id(&packing.particles[l as usize - 1]),
+                    l => packing.particles[l as usize - 1].phase(),
                 })
                 .collect(),
             Some(v),

@@ -15,32 +15,15 @@ const SPHERE_HEADER: &str = "x,y,z,r";
 /// The header of a table with other shapes.
 const MIXED_HEADER: &str = "type,x,y,z,r,lx,ly,lz,a,b,c,qw,qx,qy,qz";
 
-/// One row for a particle: the sphere columns, or the mixed ones when `mixed`.
+/// One row for a particle: the sphere columns, or the mixed ones when `mixed`
+/// ([`ParticleRecord::csv_row`]).
 fn row(p: &ParticleRecord, mixed: bool) -> String {
     match p {
-        ParticleRecord::Sphere { center, radius } if !mixed => {
-            format!("{},{},{},{}", center[0], center[1], center[2], radius)
+        ParticleRecord::Sphere(s) if !mixed => {
+            let c = s.center;
+            format!("{},{},{},{}", c[0], c[1], c[2], s.radius)
         }
-        ParticleRecord::Sphere { center, radius } => format!(
-            "sphere,{},{},{},{},,,,,,,,,,",
-            center[0], center[1], center[2], radius
-        ),
-        ParticleRecord::Cylinder {
-            center,
-            radius,
-            half_axis: l,
-        } => format!(
-            "cylinder,{},{},{},{},{},{},{},,,,,,,",
-            center[0], center[1], center[2], radius, l[0], l[1], l[2]
-        ),
-        ParticleRecord::Ellipsoid {
-            center,
-            semi_axes: a,
-            orientation: q,
-        } => format!(
-            "ellipsoid,{},{},{},,,,,{},{},{},{},{},{},{}",
-            center[0], center[1], center[2], a[0], a[1], a[2], q[0], q[1], q[2], q[3]
-        ),
+        _ => p.csv_row(),
     }
 }
 
@@ -49,7 +32,7 @@ pub fn write_csv_to(packing: &Packing, w: &mut impl Write) -> std::io::Result<()
     let mixed = packing
         .particles
         .iter()
-        .any(|p| !matches!(p, ParticleRecord::Sphere { .. }));
+        .any(|p| !matches!(p, ParticleRecord::Sphere(_)));
     writeln!(w, "{}", if mixed { MIXED_HEADER } else { SPHERE_HEADER })?;
     for p in &packing.particles {
         writeln!(w, "{}", row(p, mixed))?;

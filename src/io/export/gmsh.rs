@@ -35,7 +35,7 @@
 //! mesher resolves; shrink the particles first ([`GmshOptions::shrink`]) so that the narrowest
 //! gap is a few elements wide.
 
-use super::{bounding_sphere, container_bounds, periodic_axes, provenance_line, ExportError};
+use super::{container_bounds, periodic_axes, provenance_line, ExportError};
 use crate::io::packing::{ContainerRecord, Packing, ParticleRecord};
 use std::io::Write;
 
@@ -68,12 +68,7 @@ pub enum GmshGroups {
 /// the kind's voxel phase name and tag 3 + its phase id (so that tags 1–3 keep their
 /// meaning): one list of kinds for both exports.
 fn kind_group(p: &ParticleRecord) -> (String, usize) {
-    let id = super::voxel::phase_id(p);
-    let (_, name) = super::voxel::PHASE_NAMES
-        .iter()
-        .find(|(phase, _)| *phase == id)
-        .expect("every phase id is named");
-    (format!("{name}s"), 3 + usize::from(id))
+    (format!("{}s", p.kind()), 3 + usize::from(p.phase()))
 }
 
 /// One solid of the script: a particle (or shell) translated by a periodic image shift.
@@ -88,68 +83,7 @@ struct Solid<'a> {
 
 /// The `.geo` statement creating volume `tag` for a solid.
 fn solid_statement(s: &Solid, scale: f64, tag: usize) -> String {
-    match s.particle {
-        ParticleRecord::Sphere { center, radius } => format!(
-            "Sphere({tag}) = {{{}, {}, {}, {}}};",
-            center[0] + s.shift[0],
-            center[1] + s.shift[1],
-            center[2] + s.shift[2],
-            radius * scale + s.inflate
-        ),
-        ParticleRecord::Cylinder {
-            center,
-            radius,
-            half_axis,
-        } => {
-            // OpenCASCADE's cylinder: base point, axis vector (full length), radius; a shell
-            // also grows by `inflate` at both caps.
-            let length = half_axis.iter().map(|x| x * x).sum::<f64>().sqrt() * scale;
-            let stretch = scale * (1.0 + s.inflate / length);
-            let base: Vec<f64> = (0..3)
-                .map(|k| center[k] + s.shift[k] - half_axis[k] * stretch)
-                .collect();
-            format!(
-                "Cylinder({tag}) = {{{}, {}, {}, {}, {}, {}, {}}};",
-                base[0],
-                base[1],
-                base[2],
-                2.0 * half_axis[0] * stretch,
-                2.0 * half_axis[1] * stretch,
-                2.0 * half_axis[2] * stretch,
-                radius * scale + s.inflate
-            )
-        }
-        ParticleRecord::Ellipsoid {
-            center,
-            semi_axes,
-            orientation,
-        } => {
-            // A unit sphere at the origin dilated to the semi-axes (a shell adds `inflate` to
-            // each: an ellipsoid, not the exact offset surface), rotated about the origin and
-            // then translated to its centre: every periodic image is then the same solid
-            // moved, so OpenCASCADE cuts matching curves on opposite faces. (Built at its own
-            // centre, an image's spline surface differs in the last bits from the original's
-            // and Gmsh 4.8 failed to pair the cut curves of a periodic box: "Cannot find
-            // periodic counterpart", then a crash.)
-            let c: Vec<f64> = (0..3).map(|k| center[k] + s.shift[k]).collect();
-            let a: Vec<f64> = semi_axes.iter().map(|x| x * scale + s.inflate).collect();
-            let mut text = format!(
-                "Sphere({tag}) = {{0, 0, 0, 1}};\nDilate {{{{0, 0, 0}}, {{{}, {}, {}}}}} {{ Volume{{{tag}}}; }}",
-                a[0], a[1], a[2]
-            );
-            if let Some((axis, angle)) = super::rotation_of(orientation).axis_angle() {
-                text.push_str(&format!(
-                    "\nRotate {{{{{}, {}, {}}}, {{0, 0, 0}}, {}}} {{ Volume{{{tag}}}; }}",
-                    axis[0], axis[1], axis[2], angle
-                ));
-            }
-            text.push_str(&format!(
-                "\nTranslate {{{}, {}, {}}} {{ Volume{{{tag}}}; }}",
-                c[0], c[1], c[2]
-            ));
-            text
-        }
-    }
+    s.particle.gmsh_solid(tag, scale, s.shift, s.inflate)
 }
 
 /// The `.geo` statement creating the box `[lo, hi]` as volume `tag`.
@@ -163,34 +97,6 @@ fn box_statement(tag: usize, lo: [f64; 3], hi: [f64; 3]) -> String {
         hi[1] - lo[1],
         hi[2] - lo[2]
     )
-}
-
-/// The particle with its size scaled by `scale` about its centre.
-fn scaled(p: &ParticleRecord, scale: f64) -> ParticleRecord {
-    match p {
-        ParticleRecord::Sphere { center, radius } => ParticleRecord::Sphere {
-            center: *center,
-            radius: radius * scale,
-        },
-        ParticleRecord::Cylinder {
-            center,
-            radius,
-            half_axis,
-        } => ParticleRecord::Cylinder {
-            center: *center,
-            radius: radius * scale,
-            half_axis: half_axis.map(|x| x * scale),
-        },
-        ParticleRecord::Ellipsoid {
-            center,
-            semi_axes,
-            orientation,
-        } => ParticleRecord::Ellipsoid {
-            center: *center,
-            semi_axes: semi_axes.map(|x| x * scale),
-            orientation: *orientation,
-        },
-    }
 }
 
 /// Image shifts of a bounding sphere `(c, r)` that reach into the box `[lo, hi]` along the
@@ -327,8 +233,8 @@ fn check(
     let mut outer = packing.clone();
     outer.min_gap = 0.0;
     for p in &mut outer.particles {
-        let (_, r) = bounding_sphere(p);
-        *p = scaled(p, ((1.0 - opts.shrink) * r + shell) / r);
+        let (_, r) = p.bounding_sphere();
+        *p = p.scaled(((1.0 - opts.shrink) * r + shell) / r);
     }
     let v = check_surfaces(&outer);
     if v.violation_count > 0 {
@@ -357,7 +263,11 @@ fn check(
 /// Half the mean particle radius after shrinking.
 fn default_mesh_size(packing: &Packing, opts: &GmshOptions) -> f64 {
     let n = packing.particles.len().max(1) as f64;
-    let sum: f64 = packing.particles.iter().map(|p| bounding_sphere(p).1).sum();
+    let sum: f64 = packing
+        .particles
+        .iter()
+        .map(|p| p.bounding_sphere().1)
+        .sum();
     0.5 * sum / n * (1.0 - opts.shrink)
 }
 
@@ -469,7 +379,7 @@ fn geo(
         .particles
         .iter()
         .map(|p| {
-            let (c, r) = bounding_sphere(p);
+            let (c, r) = p.bounding_sphere();
             (c, r * scale + shell)
         })
         .collect();
@@ -527,7 +437,7 @@ fn geo(
     let mut cores: Vec<Solid> = Vec::new();
     let mut shells: Vec<Solid> = Vec::new();
     for (index, p) in packing.particles.iter().enumerate() {
-        let (c, r) = bounding_sphere(p);
+        let (c, r) = p.bounding_sphere();
         // Wrap into the (translated) box first; the images then reach across its faces.
         let wrap: [f64; 3] = std::array::from_fn(|k| {
             if periodic[k] {
@@ -577,7 +487,7 @@ fn geo(
         let mut seen: Vec<u8> = packing
             .particles
             .iter()
-            .map(super::voxel::phase_id)
+            .map(ParticleRecord::phase)
             .collect();
         seen.sort_unstable();
         seen.dedup();
@@ -705,6 +615,7 @@ fn geo(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::record::SphereRecord;
 
     /// Spheres in a walled box, every pair and wall measured exactly: the check the tests
     /// give the exporter (independent of `crate::verify`).
@@ -716,7 +627,7 @@ mod tests {
             .particles
             .iter()
             .map(|p| match *p {
-                ParticleRecord::Sphere { center, radius } => (center, radius),
+                ParticleRecord::Sphere(SphereRecord { center, radius }) => (center, radius),
                 _ => panic!("spheres"),
             })
             .collect();

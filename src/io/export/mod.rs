@@ -12,8 +12,10 @@
 //! | `xyzd` | PackingGeneration's binary `x y z d` doubles, spheres ([`xyzd`]) | numpy |
 //! | `lammps` | LAMMPS data file, atom style sphere ([`lammps`]) | numpy |
 //!
-//! Every exporter is a dispatch over [`ParticleRecord`]: a new particle shape is one match
-//! arm in [`bounding_sphere`], [`contains`], and in each writer's per-particle function.
+//! Exporters never match on a particle's kind: what a format needs of a particle (its
+//! bounding sphere, containment, CSV row, Gmsh solid, VTK point data) is a method of
+//! [`ParticleRecord`], implemented once per kind in [`crate::io::record`]. Only the formats
+//! defined for spheres (xyzd, LAMMPS) ask for the sphere variant.
 //! All files are written through [`write_atomically`]: an existing file is never left
 //! half-written. Lengths keep the packing's unit.
 
@@ -304,19 +306,14 @@ pub(crate) fn spheres(packing: &Packing, name: &str) -> Result<Vec<([f64; 3], f6
         .iter()
         .enumerate()
         .map(|(i, p)| match p {
-            ParticleRecord::Sphere { center, radius } => Ok((*center, *radius)),
-            ParticleRecord::Cylinder { .. } | ParticleRecord::Ellipsoid { .. } => {
-                Err(ExportError::Invalid {
-                    option: "--format",
-                    message: format!(
-                        "{name} takes spheres only, and particle {i} is {}",
-                        match p {
-                            ParticleRecord::Cylinder { .. } => "a cylinder",
-                            _ => "an ellipsoid",
-                        }
-                    ),
-                })
-            }
+            ParticleRecord::Sphere(s) => Ok((s.center, s.radius)),
+            _ => Err(ExportError::Invalid {
+                option: "--format",
+                message: format!(
+                    "{name} takes spheres only, and particle {i} is of kind {}",
+                    p.kind()
+                ),
+            }),
         })
         .collect()
 }
@@ -330,81 +327,6 @@ pub(crate) fn write_file(
         path: path.display().to_string(),
         source,
     })
-}
-
-/// Centre and radius of the smallest sphere around a particle that all exporters use for
-/// bounding boxes (periodic images, voxel ranges).
-pub fn bounding_sphere(p: &ParticleRecord) -> ([f64; 3], f64) {
-    match p {
-        ParticleRecord::Sphere { center, radius } => (*center, *radius),
-        ParticleRecord::Cylinder {
-            center,
-            radius,
-            half_axis,
-        } => (*center, (radius * radius + norm2(half_axis)).sqrt()),
-        ParticleRecord::Ellipsoid {
-            center, semi_axes, ..
-        } => (*center, semi_axes.iter().copied().fold(0.0, f64::max)),
-    }
-}
-
-/// The rotation of an ellipsoid record (body frame to world frame).
-pub(crate) fn rotation_of(orientation: &[f64; 4]) -> nalgebra::UnitQuaternion<f64> {
-    let [w, x, y, z] = *orientation;
-    nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z))
-}
-
-fn norm2(v: &[f64; 3]) -> f64 {
-    v.iter().map(|x| x * x).sum()
-}
-
-/// Whether point `x` lies inside (or on) particle `p`, with the particle at its written pose
-/// (no periodic wrap: the caller passes the unwrapped point).
-pub fn contains(p: &ParticleRecord, x: [f64; 3]) -> bool {
-    match p {
-        ParticleRecord::Sphere { center, radius } => {
-            let d2: f64 = (0..3).map(|k| (x[k] - center[k]).powi(2)).sum();
-            d2 <= radius * radius
-        }
-        ParticleRecord::Cylinder {
-            center,
-            radius,
-            half_axis,
-        } => {
-            // Axial coordinate t along the unit axis, radial distance² = |x − c|² − t².
-            let length = norm2(half_axis).sqrt();
-            let d: Vec<f64> = (0..3).map(|k| x[k] - center[k]).collect();
-            let t = (0..3).map(|k| d[k] * half_axis[k]).sum::<f64>() / length;
-            let radial2 = d.iter().map(|v| v * v).sum::<f64>() - t * t;
-            t.abs() <= length && radial2 <= radius * radius
-        }
-        ParticleRecord::Ellipsoid {
-            center,
-            semi_axes,
-            orientation,
-        } => {
-            // In the body frame: Σ (x_k / a_k)² ≤ 1.
-            let d = nalgebra::Vector3::new(x[0] - center[0], x[1] - center[1], x[2] - center[2]);
-            let body = rotation_of(orientation).inverse_transform_vector(&d);
-            (0..3)
-                .map(|k| (body[k] / semi_axes[k]).powi(2))
-                .sum::<f64>()
-                <= 1.0
-        }
-    }
-}
-
-/// Volume of a particle.
-pub fn particle_volume(p: &ParticleRecord) -> f64 {
-    match p {
-        ParticleRecord::Sphere { radius, .. } => 4.0 / 3.0 * std::f64::consts::PI * radius.powi(3),
-        ParticleRecord::Cylinder {
-            radius, half_axis, ..
-        } => std::f64::consts::PI * radius * radius * 2.0 * norm2(half_axis).sqrt(),
-        ParticleRecord::Ellipsoid { semi_axes: a, .. } => {
-            4.0 / 3.0 * std::f64::consts::PI * a[0] * a[1] * a[2]
-        }
-    }
 }
 
 /// Axis-aligned bounding box `(lower, upper)` of a container.
@@ -442,7 +364,11 @@ pub fn periodic_axes(c: &ContainerRecord) -> [bool; 3] {
 
 /// Exact packing fraction of the written particles: Σ particle volume / container volume.
 pub fn packing_fraction(packing: &Packing) -> f64 {
-    packing.particles.iter().map(particle_volume).sum::<f64>()
+    packing
+        .particles
+        .iter()
+        .map(ParticleRecord::volume)
+        .sum::<f64>()
         / container_volume(&packing.container)
 }
 

@@ -22,10 +22,11 @@
 //! observed error is far smaller ([`resolution_bound`]).
 
 use super::{
-    bounding_sphere, container_bounds, container_volume, contains, packing_fraction, periodic_axes,
-    provenance_line, ExportError,
+    container_bounds, container_volume, packing_fraction, periodic_axes, provenance_line,
+    ExportError,
 };
 use crate::io::packing::{ContainerRecord, Packing, ParticleRecord};
+use crate::io::record::PHASE_NAMES;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -45,23 +46,6 @@ pub enum Labels {
 pub const OUTSIDE_PHASE: u8 = u8::MAX;
 /// Label of voxels outside a cylinder container, [`Labels::Particle`].
 pub const OUTSIDE_PARTICLE: u32 = u32::MAX;
-
-/// Phase id of a particle's shape (0 is the matrix).
-pub(super) fn phase_id(p: &ParticleRecord) -> u8 {
-    match p {
-        ParticleRecord::Sphere { .. } => 1,
-        ParticleRecord::Ellipsoid { .. } => 2,
-        ParticleRecord::Cylinder { .. } => 3,
-    }
-}
-
-/// Name of each phase id, for the sidecar.
-pub(super) const PHASE_NAMES: [(u8, &str); 4] = [
-    (0, "matrix"),
-    (1, "sphere"),
-    (2, "ellipsoid"),
-    (3, "cylinder"),
-];
 
 /// The voxel grid over a container's bounding box.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -166,7 +150,7 @@ fn for_each_inside_sample(
     };
     let wrap = |k: usize, i: i64| i.rem_euclid(grid.shape[k] as i64) as usize;
     for (index, p) in packing.particles.iter().enumerate() {
-        let (c, r) = bounding_sphere(p);
+        let (c, r) = p.bounding_sphere();
         // Unwrapped index ranges of the voxels meeting the bounding box.
         let range: [(i64, i64); 3] = std::array::from_fn(|k| {
             let n = grid.shape[k] as i64;
@@ -184,7 +168,7 @@ fn for_each_inside_sample(
                 for k in range[2].0..=range[2].1 {
                     let voxel = row + wrap(2, k);
                     for (mi, mj, mk) in (0..s * s * s).map(|m| (m / (s * s), m / s % s, m % s)) {
-                        if contains(p, [sample(0, i, mi), sample(1, j, mj), sample(2, k, mk)]) {
+                        if p.contains([sample(0, i, mi), sample(1, j, mj), sample(2, k, mk)]) {
                             visit(index, voxel);
                         }
                     }
@@ -219,27 +203,12 @@ pub fn partial_volume(packing: &Packing, grid: &Grid, s: usize) -> Vec<f32> {
 /// container volume (see the module docs).
 pub fn resolution_bound(packing: &Packing, grid: &Grid) -> f64 {
     let half_diagonal = 0.5 * grid.spacing.iter().map(|h| h * h).sum::<f64>().sqrt();
-    let surface: f64 = packing.particles.iter().map(surface_area).sum();
+    let surface: f64 = packing
+        .particles
+        .iter()
+        .map(ParticleRecord::surface_area)
+        .sum();
     surface * half_diagonal / container_volume(&packing.container)
-}
-
-fn surface_area(p: &ParticleRecord) -> f64 {
-    match p {
-        ParticleRecord::Sphere { radius, .. } => 4.0 * std::f64::consts::PI * radius * radius,
-        ParticleRecord::Cylinder {
-            radius, half_axis, ..
-        } => {
-            let length = 2.0 * half_axis.iter().map(|x| x * x).sum::<f64>().sqrt();
-            2.0 * std::f64::consts::PI * radius * (radius + length)
-        }
-        ParticleRecord::Ellipsoid { semi_axes: a, .. } => {
-            // Knud Thomsen's formula (relative error below 1.1 %; enough for a bound).
-            let p = 1.6075;
-            let mean =
-                ((a[0] * a[1]).powf(p) + (a[0] * a[2]).powf(p) + (a[1] * a[2]).powf(p)) / 3.0;
-            4.0 * std::f64::consts::PI * mean.powf(1.0 / p)
-        }
-    }
 }
 
 /// Options of a voxel export.
@@ -317,7 +286,7 @@ impl VoxelImage {
     pub fn of(packing: &Packing, grid: &Grid, labels: Labels) -> Result<Self, ExportError> {
         Ok(match labels {
             Labels::Phase => Self::Phase(voxelize(packing, grid, 0u8, OUTSIDE_PHASE, |_, p| {
-                phase_id(p)
+                p.phase()
             })),
             Labels::Particle => {
                 Self::Particle(voxelize(packing, grid, 0u32, OUTSIDE_PARTICLE, |i, _| {
@@ -481,6 +450,7 @@ pub fn write_voxels(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::record::SphereRecord;
 
     fn packing(container: ContainerRecord, particles: Vec<ParticleRecord>) -> Packing {
         Packing::new(container, particles)
@@ -495,7 +465,7 @@ mod tests {
     }
 
     fn sphere(center: [f64; 3], radius: f64) -> ParticleRecord {
-        ParticleRecord::Sphere { center, radius }
+        ParticleRecord::Sphere(SphereRecord { center, radius })
     }
 
     #[test]
@@ -514,8 +484,8 @@ mod tests {
         let grid = Grid::new(&cube(true), 20).unwrap();
         let centred = packing(cube(true), vec![sphere([5.1, 4.9, 5.05], 2.3)]);
         let wrapped = packing(cube(true), vec![sphere([0.1, 9.9, 0.05], 2.3)]);
-        let a = voxelize(&centred, &grid, 0u8, 9, |_, p| phase_id(p));
-        let b = voxelize(&wrapped, &grid, 0u8, 9, |_, p| phase_id(p));
+        let a = voxelize(&centred, &grid, 0u8, 9, |_, p| p.phase());
+        let b = voxelize(&wrapped, &grid, 0u8, 9, |_, p| p.phase());
         let count = |v: &[u8]| v.iter().filter(|&&x| x == 1).count();
         assert!(count(&a) > 0);
         assert_eq!(count(&a), count(&b));
@@ -537,7 +507,7 @@ mod tests {
         let exact = 4.0 / 3.0 * std::f64::consts::PI * 3.1f64.powi(3) / 1000.0;
         for voxels in [16, 64, 128] {
             let grid = Grid::new(&p.container, voxels).unwrap();
-            let image = voxelize(&p, &grid, 0u8, 9, |_, p| phase_id(p));
+            let image = voxelize(&p, &grid, 0u8, 9, |_, p| p.phase());
             let phi = image.iter().filter(|&&v| v == 1).count() as f64 / grid.len() as f64;
             let bound = resolution_bound(&p, &grid);
             assert!(
@@ -573,7 +543,7 @@ mod tests {
         };
         let p = packing(c, vec![]);
         let grid = Grid::new(&p.container, 100).unwrap();
-        let image = voxelize(&p, &grid, 0u8, OUTSIDE_PHASE, |_, p| phase_id(p));
+        let image = voxelize(&p, &grid, 0u8, OUTSIDE_PHASE, |_, p| p.phase());
         let inside = image.iter().filter(|&&v| v == 0).count() as f64 / grid.len() as f64;
         // Fraction of the square cross-section inside the circle: π/4.
         assert!(

@@ -34,81 +34,23 @@ use std::path::{Path, PathBuf};
 /// Segments of the polygon a cylinder container's circles are drawn with.
 pub const CYLINDER_SEGMENTS: usize = 64;
 
-/// Per-particle attributes of the point data.
-struct Attributes {
-    center: [f64; 3],
-    radius: f64,
-    semi_axes: [f64; 3],
-    orientation: [f64; 4],
-    shape_tensor: [f64; 9],
-    half_axis: [f64; 3],
-    shape: u8,
-}
-
-fn attributes(p: &ParticleRecord) -> Attributes {
-    match p {
-        ParticleRecord::Sphere { center, radius } => Attributes {
-            center: *center,
-            radius: *radius,
-            semi_axes: [*radius; 3],
-            orientation: [1.0, 0.0, 0.0, 0.0],
-            shape_tensor: [*radius, 0.0, 0.0, 0.0, *radius, 0.0, 0.0, 0.0, *radius],
-            half_axis: [0.0; 3],
-            shape: 1,
-        },
-        ParticleRecord::Cylinder {
-            center,
-            radius,
-            half_axis,
-        } => {
-            // Body frame: z along the axis. The rotation taking z to the axis, as a unit
-            // quaternion [w, x, y, z], and the tensor R·diag(r, r, |l|)·Rᵀ.
-            let l = nalgebra::Vector3::from(*half_axis);
-            let length = l.norm();
-            let rotation = nalgebra::UnitQuaternion::rotation_between(&nalgebra::Vector3::z(), &l)
-                .unwrap_or_else(|| {
-                    nalgebra::UnitQuaternion::from_axis_angle(
-                        &nalgebra::Vector3::x_axis(),
-                        std::f64::consts::PI,
-                    )
-                });
-            let r = rotation.to_rotation_matrix();
-            let tensor = r.matrix()
-                * nalgebra::Matrix3::from_diagonal(&nalgebra::Vector3::new(
-                    *radius, *radius, length,
-                ))
-                * r.matrix().transpose();
-            let q = rotation.quaternion();
-            Attributes {
-                center: *center,
-                radius: *radius,
-                semi_axes: [*radius, *radius, length],
-                orientation: [q.w, q.i, q.j, q.k],
-                shape_tensor: std::array::from_fn(|k| tensor[(k / 3, k % 3)]),
-                half_axis: *half_axis,
-                shape: 3,
-            }
-        }
-        ParticleRecord::Ellipsoid {
-            center,
-            semi_axes: a,
-            orientation,
-        } => {
-            let r = super::rotation_of(orientation).to_rotation_matrix();
-            let tensor = r.matrix()
-                * nalgebra::Matrix3::from_diagonal(&nalgebra::Vector3::new(a[0], a[1], a[2]))
-                * r.matrix().transpose();
-            Attributes {
-                center: *center,
-                radius: a.iter().copied().fold(0.0, f64::max),
-                semi_axes: *a,
-                orientation: *orientation,
-                shape_tensor: std::array::from_fn(|k| tensor[(k / 3, k % 3)]),
-                half_axis: [0.0; 3],
-                shape: 2,
-            }
-        }
-    }
+/// Per-particle attributes of the point data (see the table above), one per particle
+/// ([`crate::io::record::RecordShape::vtk_attributes`]).
+pub struct VtkAttributes {
+    /// Centre.
+    pub center: [f64; 3],
+    /// Radius of the bounding sphere (the radius, for a sphere).
+    pub radius: f64,
+    /// Semi-axes in the body frame.
+    pub semi_axes: [f64; 3],
+    /// Unit quaternion `[w, x, y, z]`, body → world.
+    pub orientation: [f64; 4],
+    /// `R diag(semi_axes) Rᵀ`, row-major.
+    pub shape_tensor: [f64; 9],
+    /// A cylinder's half-axis vector; `0, 0, 0` for other shapes.
+    pub half_axis: [f64; 3],
+    /// Shape id: the kind's voxel phase id ([`crate::io::record::RecordShape::PHASE`]).
+    pub shape: u8,
 }
 
 /// The arrays of one `.vtu` document: the XML elements that name them and the appended
@@ -188,7 +130,11 @@ fn write_grid(
 
 /// Writes the particles' `.vtu` document to `w`.
 pub fn write_vtu_to(packing: &Packing, w: &mut impl Write) -> std::io::Result<()> {
-    let a: Vec<Attributes> = packing.particles.iter().map(attributes).collect();
+    let a: Vec<VtkAttributes> = packing
+        .particles
+        .iter()
+        .map(ParticleRecord::vtk_attributes)
+        .collect();
     let n = a.len();
     let mut appended = Appended::default();
     let point_data = vec![

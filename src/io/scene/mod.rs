@@ -763,11 +763,12 @@ impl Scene {
             radii: Vec::with_capacity(packing.particles.len()),
         };
         for (i, p) in packing.particles.iter().enumerate() {
-            let ParticleRecord::Sphere { center, radius } = p else {
+            let ParticleRecord::Sphere(sphere) = p else {
                 return Err(bad(format!(
                     "particle {i} is not a sphere (a scene starts from spheres only)"
                 )));
             };
+            let (center, radius) = (&sphere.center, &sphere.radius);
             start
                 .centres
                 .push(std::array::from_fn(|k| center[k] - origin[k]));
