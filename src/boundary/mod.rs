@@ -1,10 +1,10 @@
 //! Containers: what surrounds the particles (DynamO's *locals*).
 //!
-//! A [`Boundary`] gives the kernel the minimum-image convention for periodic axes, the
-//! prediction of a particle's next wall contact and the wall normal at that contact. Wall
-//! code costs nothing in a scene without walls: [`PeriodicBox`] sets
-//! [`Boundary::HAS_WALLS`] to `false`, and the kernel's wall branches are removed at compile
-//! time.
+//! A [`Boundary`] gives the kernel the minimum-image convention for periodic axes and its
+//! walls ([`Walls`]): the prediction of a particle's next wall contact and the wall normal at
+//! that contact. Wall code costs nothing in a scene without walls: the walls of a
+//! [`PeriodicBox`] are [`NoWalls`], a type without value, so the kernel's wall branches are
+//! removed at compile time.
 //!
 //! Wall contacts treat the particle through its bounding sphere, which is exact for spheres.
 //! Distance functions follow paper 001, Eq. 23 (plane) and its cylinder analogue. A container
@@ -27,8 +27,12 @@ pub type WallId = u8;
 /// [`Boundary::predict_wall`] never reports a contact later than the true first contact of
 /// the growing bounding sphere with a wall.
 pub trait Boundary: Clone + Send + Sync + 'static {
-    /// Whether the container has any wall (`false` removes wall events from the hot loop).
-    const HAS_WALLS: bool;
+    /// The container's walls ([`Walls`]): the container itself when it has any,
+    /// [`NoWalls`] (no value) for a fully periodic box, so wall events compile out of the
+    /// kernel.
+    type Walls: Walls;
+    /// The walls ([`Boundary::Walls`]), `None` without walls.
+    fn walls(&self) -> Option<&Self::Walls>;
     /// The container's walls as planes, which a shape with its own plane contacts is asked
     /// about one by one ([`PlanarWalls`]): the container itself when every wall is a plane,
     /// [`NotPlanar`] (no value) when a wall is curved or there is none.
@@ -50,6 +54,16 @@ pub trait Boundary: Clone + Send + Sync + 'static {
     fn minimum_image_lanes(&self, dr: &mut Lanes3);
     /// Wraps a position into the box along periodic axes.
     fn wrap(&self, p: &mut Vec3);
+    /// Smallest distance between the surface of a sphere (`p`, `r`) and any wall; negative
+    /// when the sphere pokes through a wall, `+∞` without walls.
+    fn clearance(&self, p: &Vec3, r: f64) -> f64;
+    /// A uniformly distributed centre for a sphere of radius `r` that keeps clear of the walls,
+    /// or `None` if no such centre exists.
+    fn sample_center<R: Rng>(&self, r: f64, rng: &mut R) -> Option<Vec3>;
+}
+
+/// The walls of a container: wall contacts of a particle's bounding sphere.
+pub trait Walls {
     /// First time `τ ∈ [0, max_tau]` at which a sphere of radius `r` growing at `g`, with
     /// centre `p` moving at `v`, touches a wall, and which wall.
     fn predict_wall(
@@ -63,12 +77,19 @@ pub trait Boundary: Clone + Send + Sync + 'static {
     /// Unit normal of `wall` pointing into the container, at the contact of a sphere
     /// centred at `p`.
     fn wall_normal(&self, wall: WallId, p: &Vec3) -> Vec3;
-    /// Smallest distance between the surface of a sphere (`p`, `r`) and any wall; negative
-    /// when the sphere pokes through a wall, `+∞` without walls.
-    fn clearance(&self, p: &Vec3, r: f64) -> f64;
-    /// A uniformly distributed centre for a sphere of radius `r` that keeps clear of the walls,
-    /// or `None` if no such centre exists.
-    fn sample_center<R: Rng>(&self, r: f64, rng: &mut R) -> Option<Vec3>;
+}
+
+/// The walls of a container without any: no value, so wall events compile out of the kernel.
+#[derive(Clone, Copy, Debug)]
+pub enum NoWalls {}
+
+impl Walls for NoWalls {
+    fn predict_wall(&self, _: &Vec3, _: &Vec3, _: f64, _: f64, _: f64) -> Option<(f64, WallId)> {
+        match *self {}
+    }
+    fn wall_normal(&self, _: WallId, _: &Vec3) -> Vec3 {
+        match *self {}
+    }
 }
 
 /// A container whose walls are all planes, asked for a particle's first wall contact through
@@ -120,8 +141,13 @@ pub struct PeriodicBox {
 }
 
 impl Boundary for PeriodicBox {
-    const HAS_WALLS: bool = false;
+    type Walls = NoWalls;
     type Planes = NotPlanar;
+
+    #[inline(always)]
+    fn walls(&self) -> Option<&NoWalls> {
+        None
+    }
 
     #[inline(always)]
     fn planes(&self) -> Option<&NotPlanar> {
@@ -159,12 +185,6 @@ impl Boundary for PeriodicBox {
         for k in 0..3 {
             p[k] = wrap_coordinate(p[k], self.min[k], self.len[k]);
         }
-    }
-    fn predict_wall(&self, _: &Vec3, _: &Vec3, _: f64, _: f64, _: f64) -> Option<(f64, WallId)> {
-        None
-    }
-    fn wall_normal(&self, _: WallId, _: &Vec3) -> Vec3 {
-        Vec3::zeros()
     }
     fn clearance(&self, _: &Vec3, _: f64) -> f64 {
         f64::INFINITY
@@ -255,11 +275,16 @@ pub struct WalledBox {
 }
 
 impl Boundary for WalledBox {
-    const HAS_WALLS: bool = true;
+    type Walls = Self;
     type Planes = Self;
 
     #[inline(always)]
     fn planes(&self) -> Option<&Self> {
+        Some(self)
+    }
+
+    #[inline(always)]
+    fn walls(&self) -> Option<&Self> {
         Some(self)
     }
 
@@ -308,6 +333,30 @@ impl Boundary for WalledBox {
             }
         }
     }
+    fn clearance(&self, p: &Vec3, r: f64) -> f64 {
+        (0..3)
+            .filter(|&k| !self.periodic[k])
+            .map(|k| (p[k] - self.min[k]).min(self.max[k] - p[k]) - r)
+            .fold(f64::INFINITY, f64::min)
+    }
+    fn sample_center<R: Rng>(&self, r: f64, rng: &mut R) -> Option<Vec3> {
+        let mut c = Vec3::zeros();
+        for k in 0..3 {
+            let (lo, hi) = if self.periodic[k] {
+                (self.min[k], self.max[k])
+            } else {
+                (self.min[k] + r, self.max[k] - r)
+            };
+            if hi < lo {
+                return None;
+            }
+            c[k] = lo + (hi - lo) * rng.gen::<f64>();
+        }
+        Some(c)
+    }
+}
+
+impl Walls for WalledBox {
     #[inline]
     fn predict_wall(
         &self,
@@ -333,27 +382,6 @@ impl Boundary for WalledBox {
         let mut n = Vec3::zeros();
         n[(wall / 2) as usize] = if wall.is_multiple_of(2) { 1.0 } else { -1.0 };
         n
-    }
-    fn clearance(&self, p: &Vec3, r: f64) -> f64 {
-        (0..3)
-            .filter(|&k| !self.periodic[k])
-            .map(|k| (p[k] - self.min[k]).min(self.max[k] - p[k]) - r)
-            .fold(f64::INFINITY, f64::min)
-    }
-    fn sample_center<R: Rng>(&self, r: f64, rng: &mut R) -> Option<Vec3> {
-        let mut c = Vec3::zeros();
-        for k in 0..3 {
-            let (lo, hi) = if self.periodic[k] {
-                (self.min[k], self.max[k])
-            } else {
-                (self.min[k] + r, self.max[k] - r)
-            };
-            if hi < lo {
-                return None;
-            }
-            c[k] = lo + (hi - lo) * rng.gen::<f64>();
-        }
-        Some(c)
     }
 }
 
@@ -410,12 +438,17 @@ const BOTTOM: WallId = 1;
 const TOP: WallId = 2;
 
 impl Boundary for CylinderContainer {
-    const HAS_WALLS: bool = true;
+    type Walls = Self;
     type Planes = NotPlanar;
 
     #[inline(always)]
     fn planes(&self) -> Option<&NotPlanar> {
         None
+    }
+
+    #[inline(always)]
+    fn walls(&self) -> Option<&Self> {
+        Some(self)
     }
 
     fn min(&self) -> Vec3 {
@@ -433,6 +466,27 @@ impl Boundary for CylinderContainer {
     fn minimum_image(&self, _: &mut Vec3) {}
     fn minimum_image_lanes(&self, _: &mut Lanes3) {}
     fn wrap(&self, _: &mut Vec3) {}
+    fn clearance(&self, p: &Vec3, r: f64) -> f64 {
+        let z = p.z - self.base_center.z;
+        let rho = ((p.x - self.base_center.x).powi(2) + (p.y - self.base_center.y).powi(2)).sqrt();
+        (self.radius - rho).min(z).min(self.height - z) - r
+    }
+    fn sample_center<R: Rng>(&self, r: f64, rng: &mut R) -> Option<Vec3> {
+        let s = self.radius - r;
+        let h = self.height - 2.0 * r;
+        if s < 0.0 || h < 0.0 {
+            return None;
+        }
+        let rho = s * rng.gen::<f64>().sqrt();
+        let phi = std::f64::consts::TAU * rng.gen::<f64>();
+        Some(
+            self.base_center
+                + Vec3::new(rho * phi.cos(), rho * phi.sin(), r + h * rng.gen::<f64>()),
+        )
+    }
+}
+
+impl Walls for CylinderContainer {
     fn predict_wall(
         &self,
         p: &Vec3,
@@ -474,24 +528,6 @@ impl Boundary for CylinderContainer {
                 }
             }
         }
-    }
-    fn clearance(&self, p: &Vec3, r: f64) -> f64 {
-        let z = p.z - self.base_center.z;
-        let rho = ((p.x - self.base_center.x).powi(2) + (p.y - self.base_center.y).powi(2)).sqrt();
-        (self.radius - rho).min(z).min(self.height - z) - r
-    }
-    fn sample_center<R: Rng>(&self, r: f64, rng: &mut R) -> Option<Vec3> {
-        let s = self.radius - r;
-        let h = self.height - 2.0 * r;
-        if s < 0.0 || h < 0.0 {
-            return None;
-        }
-        let rho = s * rng.gen::<f64>().sqrt();
-        let phi = std::f64::consts::TAU * rng.gen::<f64>();
-        Some(
-            self.base_center
-                + Vec3::new(rho * phi.cos(), rho * phi.sin(), r + h * rng.gen::<f64>()),
-        )
     }
 }
 

@@ -87,7 +87,7 @@ pub use stage::{
     StopReason, Until, JAMMING_PRESSURE,
 };
 
-use crate::boundary::{Boundary, PlanarWalls, WallId};
+use crate::boundary::{Boundary, PlanarWalls, WallId, Walls};
 use crate::cancel::CancelFlag;
 use crate::prefetch;
 use crate::queue::EventQueue;
@@ -860,13 +860,13 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         let max_tau = self.barrier_time - t;
         let p = &self.particles[i];
         let pos = p.position_at(t);
-        if B::HAS_WALLS {
+        if let Some(walls) = self.boundary.walls() {
             let contact = if let Some((own, planes)) = self.shaped_walls() {
                 let spin = p.spin_at(t);
                 planes.predict_shaped_wall(&pos, &p.vel, &p.shape, own, &spin, t, max_tau)
             } else {
                 let (r, g) = self.wall_sphere(&p.shape, t);
-                self.boundary.predict_wall(&pos, &p.vel, r, g, max_tau)
+                walls.predict_wall(&pos, &p.vel, r, g, max_tau)
             };
             if let Some((tau, wall)) = contact {
                 self.local
@@ -1072,7 +1072,10 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     fn hit_wall(&mut self, i: usize, wall: WallId) {
         let t = self.time;
         let p = &self.particles[i];
-        let n = self.boundary.wall_normal(wall, &p.position_at(t));
+        let Some(walls) = self.boundary.walls() else {
+            unreachable!("wall events are predicted only through `Boundary::walls`")
+        };
+        let n = walls.wall_normal(wall, &p.position_at(t));
         let m = self.mass(p, t);
         let mut spin = p.spin_at(t);
         let (dv, virial) = if let Some((own, _)) = self.shaped_walls() {
