@@ -12,11 +12,6 @@
 /// 4·10⁴ (`/usr/bin/time -v`), rounded up.
 pub const SPHERE_BYTES: u64 = 320;
 
-/// Peak resident memory of an ellipsoid run per particle: 709 B measured at 4·10⁴ prolate
-/// ellipsoids (φ = 0.1, periodic box, `/usr/bin/time -v`, over the empty process), rounded
-/// up.
-pub const ELLIPSOID_BYTES: u64 = 750;
-
 /// Peak resident memory of a sphere + cylinder mixture per body: 238 B (RSA) and 571 B
 /// (relaxer) measured at 2·10⁴ spheres + 2·10⁴ cylinders, rounded up to the larger.
 pub const MIXTURE_BODY_BYTES: u64 = 600;

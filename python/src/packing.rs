@@ -130,12 +130,7 @@ impl Packing {
     /// Centres, shape (N, 3).
     #[getter]
     fn centers<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        self.rows(py, 3, |p| {
-            let (ParticleRecord::Sphere(SphereRecord { center, .. })
-            | ParticleRecord::Cylinder(CylinderRecord { center, .. })
-            | ParticleRecord::Ellipsoid(EllipsoidRecord { center, .. })) = p;
-            center.to_vec()
-        })
+        self.rows(py, 3, |p| p.center().to_vec())
     }
 
     /// Radii, shape (N,): of a sphere; of a cylinder's cross-section; of the sphere of equal
@@ -158,25 +153,25 @@ impl Packing {
     }
 
     /// Semi-axes along the body axes, shape (N, 3): (r, r, r) for a sphere, NaN for a
-    /// cylinder.
+    /// cylinder (and other kinds).
     #[getter]
     fn semi_axes<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
         self.rows(py, 3, |p| match p {
             ParticleRecord::Sphere(SphereRecord { radius, .. }) => vec![*radius; 3],
             ParticleRecord::Ellipsoid(EllipsoidRecord { semi_axes, .. }) => semi_axes.to_vec(),
-            ParticleRecord::Cylinder(_) => vec![NAN; 3],
+            _ => vec![NAN; 3],
         })
     }
 
     /// Orientations as unit quaternions [w, x, y, z] rotating the body frame into the
     /// world frame, shape (N, 4): the identity for spheres, NaN for cylinders (their axis
-    /// is `half_axes`).
+    /// is `half_axes`) and other kinds.
     #[getter]
     fn orientations<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
         self.rows(py, 4, |p| match p {
             ParticleRecord::Sphere(_) => vec![1.0, 0.0, 0.0, 0.0],
             ParticleRecord::Ellipsoid(EllipsoidRecord { orientation, .. }) => orientation.to_vec(),
-            ParticleRecord::Cylinder(_) => vec![NAN; 4],
+            _ => vec![NAN; 4],
         })
     }
 
@@ -186,7 +181,7 @@ impl Packing {
     fn half_axes<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
         self.rows(py, 3, |p| match p {
             ParticleRecord::Cylinder(CylinderRecord { half_axis, .. }) => half_axis.to_vec(),
-            ParticleRecord::Sphere(_) | ParticleRecord::Ellipsoid(_) => vec![NAN; 3],
+            _ => vec![NAN; 3],
         })
     }
 
@@ -197,11 +192,7 @@ impl Packing {
             .packing
             .particles
             .iter()
-            .map(|p| match p {
-                ParticleRecord::Sphere(_) => "sphere",
-                ParticleRecord::Ellipsoid(_) => "ellipsoid",
-                ParticleRecord::Cylinder(_) => "cylinder",
-            })
+            .map(ParticleRecord::kind)
             .collect();
         py.import("numpy")?.call_method1("asarray", (names,))
     }

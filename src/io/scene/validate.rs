@@ -1,10 +1,11 @@
-//! Validation of a sphere or ellipsoid scene: every field against its allowed range, with a
+//! Validation of a sphere or ellipsoid scene (the ellipsoids' own checks are in
+//! [`super::ellipsoid`]): every field against its allowed range, with a
 //! message that names the field, the range and why ([`Scene::validate`]).
 
 use super::{
     fraction, invalid, positive, show, sphere_volume, wall_seconds, within, ContainerSpec,
-    EllipsoidSpec, GrowthKind, Method, Scene, SceneError, ELLIPSOID_MAX_FRACTION,
-    EVENTS_PER_INTERVAL_RANGE, KEPLER_FRACTION, MAX_PARTICLES, RATE_RANGE, TEMPERATURE_RANGE,
+    GrowthKind, Method, Scene, SceneError, EVENTS_PER_INTERVAL_RANGE, KEPLER_FRACTION,
+    MAX_PARTICLES, RATE_RANGE, TEMPERATURE_RANGE,
 };
 use crate::tuning::MAX_SKIN;
 
@@ -680,80 +681,5 @@ impl Scene {
             d_max: diameters.iter().copied().fold(0.0, f64::max),
             volume: sphere_volume(&diameters),
         })
-    }
-}
-
-impl Scene {
-    /// Ellipsoid-specific checks: a box container, and bounding spheres (the largest
-    /// semi-axis) that fit the box and stay below a periodic edge up to the densest fraction
-    /// the stages can reach.
-    fn validate_ellipsoids(
-        &self,
-        e: &EllipsoidSpec,
-        d_max: f64,
-        smallest_extent: f64,
-        periodic_extent: f64,
-        seeded_phi: f64,
-        grows: bool,
-    ) -> Result<(), SceneError> {
-        e.validate()?;
-        if self.method == Method::Rsa {
-            return Err(invalid(
-                "method",
-                "ellipsoids are packed by EDMD only (\"edmd\")",
-            ));
-        }
-        if self.particles.grading.is_some() {
-            return Err(invalid(
-                "particles.grading",
-                "grading curves are for spheres; give ellipsoids `count`/`diameter` or `components`",
-            ));
-        }
-        if let Some(k) = self.gap_stage() {
-            return Err(invalid(
-                format!("stage[{k}].until"),
-                "gap and max_gap goals are for spheres, not ellipsoids",
-            ));
-        }
-        if !matches!(self.container, ContainerSpec::Box { .. }) {
-            return Err(invalid(
-                "container.type",
-                "ellipsoids need a \"box\" container (periodic or walled)",
-            ));
-        }
-        let bounding = d_max * e.max_bounding_ratio();
-        if bounding >= smallest_extent {
-            return Err(invalid(
-                "particles",
-                format!(
-                    "the largest ellipsoid (bounding diameter {bounding:.4}) does not fit the \
-                     container (smallest extent {smallest_extent})"
-                ),
-            ));
-        }
-        let mut final_phi = seeded_phi;
-        if grows {
-            for s in &self.stages {
-                if s.growth != GrowthKind::None {
-                    final_phi =
-                        final_phi.max(s.until.packing_fraction.unwrap_or(ELLIPSOID_MAX_FRACTION));
-                }
-            }
-        }
-        let bounding_final = bounding * (final_phi / seeded_phi).cbrt();
-        // The kernel tracks periodic images (several images of a partner, and a particle's own
-        // images) for ellipsoids longer than half the box, up to a bounding diameter of one
-        // periodic edge.
-        if periodic_extent.is_finite() && bounding_final >= periodic_extent {
-            return Err(invalid(
-                "container.size",
-                format!(
-                    "a periodic box edge must exceed the largest bounding diameter (longest \
-                     axis) the ellipsoids can reach ({bounding_final:.4}); give at least \
-                     {bounding_final:.4} or use more, smaller particles"
-                ),
-            ));
-        }
-        Ok(())
     }
 }
