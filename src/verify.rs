@@ -1,8 +1,9 @@
 //! Independent verification of a packing: overlap, gap and containment.
 //!
-//! One module on purpose (about 1 450 lines with its tests): its worth is its independence
-//! from the kernel, so the sphere and convex checks keep their own reading of the packing,
-//! cell levels, distances and report here, shared with nothing else.
+//! One module on purpose (about 1 350 lines with its tests): its worth is its independence
+//! from the kernel, so the pair tests, cell levels, distances and report stay here, shared
+//! with nothing else. The bodies it tests are those of the written records
+//! ([`crate::io::record::RecordShape::body`]), never the kernel's shapes.
 //!
 //! This module shares no code with the kernel's prediction, cell grid or boundaries: it works
 //! on the packing as written ([`Packing`]), finds candidate pairs through its own cell levels

@@ -9,6 +9,9 @@
 //! lengths are in millimetres and volumes in mm³. The particle density ρ cancels
 //! everywhere, so masses are handled as volumes.
 //!
+//! One module (about 900 lines): the grading curve, its tables and the take algorithm
+//! share their notation and equation numbers, and the curve is read only by the take.
+//!
 //! # Grading curves
 //!
 //! A grading curve is the mass CDF `F(d)`: the fraction of the aggregate mass passing a

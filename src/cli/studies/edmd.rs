@@ -1,5 +1,9 @@
 //! Sphere studies of the EDMD kernel: whole scenes through [`run_scene`].
 //!
+//! One module (about 950 lines): each study is a function of at most about a hundred lines
+//! writing one table of BENCHMARKS.md, and they share the scene builders and the row
+//! formatting here.
+//!
 //! Every generated scene is a periodic cube seeded by RSA at packing fraction 0.3 (box edge
 //! chosen so that the diameters are as written at seeding) with seed 2026 unless a study
 //! varies it. Rates are relative growth rates (1/time, `kT = 1`, mass 1). The studies:
