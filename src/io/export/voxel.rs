@@ -27,6 +27,7 @@ use super::{
 };
 use crate::io::packing::{ContainerRecord, Packing, ParticleRecord};
 use crate::io::record::PHASE_NAMES;
+use rayon::prelude::*;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -102,12 +103,12 @@ impl Grid {
 
 /// Labels every voxel: `matrix` by default, `outside` where the centre is outside a cylinder
 /// container, `label(index, particle)` where a particle contains the centre.
-pub fn voxelize<T: Copy>(
+pub fn voxelize<T: Copy + Send>(
     packing: &Packing,
     grid: &Grid,
     matrix: T,
     outside: T,
-    label: impl Fn(usize, &ParticleRecord) -> T,
+    label: impl Fn(usize, &ParticleRecord) -> T + Sync,
 ) -> Vec<T> {
     let [nx, ny, nz] = grid.shape;
     let mut image = vec![matrix; grid.len()];
@@ -128,31 +129,36 @@ pub fn voxelize<T: Copy>(
             }
         }
     }
-    for_each_inside_sample(packing, grid, 1, |particle, voxel| {
-        image[voxel] = label(particle, &packing.particles[particle]);
+    for_each_inside_sample(packing, grid, 1, &mut image, |particle, voxel| {
+        *voxel = label(particle, &packing.particles[particle]);
     });
     image
 }
 
-/// Calls `visit(particle index, flat voxel index)` for every sample point inside a particle.
-/// Each voxel holds `s³` sample points `origin + (index + (m + ½)/s) · spacing`,
+/// Calls `visit(particle index, its voxel of image)` for every sample point inside a
+/// particle. Each voxel holds `s³` sample points `origin + (index + (m + ½)/s) · spacing`,
 /// `m = 0 … s−1` per axis (`s = 1`: the voxel centre); periodic axes wrap.
-fn for_each_inside_sample(
+///
+/// The image (x-major) is cut into slabs of whole x-planes, filled on all threads: each slab
+/// visits, in particle order, the particles whose bounding box meets it, so every voxel sees
+/// its particles in the order one thread would (the last label written wins, as there).
+fn for_each_inside_sample<T: Send>(
     packing: &Packing,
     grid: &Grid,
     s: usize,
-    mut visit: impl FnMut(usize, usize),
+    image: &mut [T],
+    visit: impl Fn(usize, &mut T) + Sync,
 ) {
-    let [_, ny, nz] = grid.shape;
+    let [nx, ny, nz] = grid.shape;
     let periodic = periodic_axes(&packing.container);
     let sample = |k: usize, i: i64, m: usize| {
         grid.origin[k] + (i as f64 + (m as f64 + 0.5) / s as f64) * grid.spacing[k]
     };
     let wrap = |k: usize, i: i64| i.rem_euclid(grid.shape[k] as i64) as usize;
-    for (index, p) in packing.particles.iter().enumerate() {
+    // Unwrapped index ranges of the voxels meeting a particle's bounding box.
+    let range_of = |p: &ParticleRecord| -> [(i64, i64); 3] {
         let (c, r) = p.bounding_sphere();
-        // Unwrapped index ranges of the voxels meeting the bounding box.
-        let range: [(i64, i64); 3] = std::array::from_fn(|k| {
+        std::array::from_fn(|k| {
             let n = grid.shape[k] as i64;
             let first = ((c[k] - r - grid.origin[k]) / grid.spacing[k]).floor() as i64;
             let last = ((c[k] + r - grid.origin[k]) / grid.spacing[k]).floor() as i64;
@@ -161,21 +167,52 @@ fn for_each_inside_sample(
             } else {
                 (first.max(0), last.min(n - 1))
             }
-        });
-        for i in range[0].0..=range[0].1 {
-            for j in range[1].0..=range[1].1 {
-                let row = (wrap(0, i) * ny + wrap(1, j)) * nz;
-                for k in range[2].0..=range[2].1 {
-                    let voxel = row + wrap(2, k);
-                    for (mi, mj, mk) in (0..s * s * s).map(|m| (m / (s * s), m / s % s, m % s)) {
-                        if p.contains([sample(0, i, mi), sample(1, j, mj), sample(2, k, mk)]) {
-                            visit(index, voxel);
+        })
+    };
+    let planes = (nx / (4 * rayon::current_num_threads())).max(1);
+    let slabs = nx.div_ceil(planes);
+    // The particles of each slab, ascending.
+    let mut members: Vec<Vec<u32>> = vec![Vec::new(); slabs];
+    for (index, p) in packing.particles.iter().enumerate() {
+        let (first, last) = range_of(p)[0];
+        for i in first..=last {
+            let slab = &mut members[wrap(0, i) / planes];
+            if slab.last() != Some(&(index as u32)) {
+                slab.push(index as u32);
+            }
+        }
+    }
+    image
+        .par_chunks_mut(planes * ny * nz)
+        .zip(members)
+        .enumerate()
+        .for_each(|(slab, (part, members))| {
+            let x0 = slab * planes;
+            for index in members.into_iter().map(|i| i as usize) {
+                let p = &packing.particles[index];
+                let range = range_of(p);
+                for i in range[0].0..=range[0].1 {
+                    let x = wrap(0, i);
+                    if x < x0 || x >= x0 + planes {
+                        continue;
+                    }
+                    for j in range[1].0..=range[1].1 {
+                        let row = ((x - x0) * ny + wrap(1, j)) * nz;
+                        for k in range[2].0..=range[2].1 {
+                            let voxel = &mut part[row + wrap(2, k)];
+                            for (mi, mj, mk) in
+                                (0..s * s * s).map(|m| (m / (s * s), m / s % s, m % s))
+                            {
+                                let x = [sample(0, i, mi), sample(1, j, mj), sample(2, k, mk)];
+                                if p.contains(x) {
+                                    visit(index, voxel);
+                                }
+                            }
                         }
                     }
                 }
             }
-        }
-    }
+        });
 }
 
 /// Partial-volume image: per voxel the fraction of its `s³` sample points inside particles
@@ -183,7 +220,7 @@ fn for_each_inside_sample(
 /// voxels outside a cylinder container get −1.
 pub fn partial_volume(packing: &Packing, grid: &Grid, s: usize) -> Vec<f32> {
     let mut counts = vec![0u32; grid.len()];
-    for_each_inside_sample(packing, grid, s, |_, voxel| counts[voxel] += 1);
+    for_each_inside_sample(packing, grid, s, &mut counts, |_, count| *count += 1);
     let outside = voxelize(packing, grid, false, true, |_, _| false);
     let per_sample = 1.0 / (s * s * s) as f64;
     counts
@@ -466,6 +503,45 @@ mod tests {
 
     fn sphere(center: [f64; 3], radius: f64) -> ParticleRecord {
         ParticleRecord::Sphere(SphereRecord { center, radius })
+    }
+
+    /// Filled on several threads, the images equal one thread's voxel for voxel, where
+    /// overlapping spheres make the label depend on the order particles are visited in
+    /// (random spheres in a box periodic along x and y, crossing its faces).
+    #[test]
+    fn images_on_many_threads_equal_one_threads() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(3);
+        let particles = (0..3000)
+            .map(|_| {
+                let center = std::array::from_fn(|_| rng.gen_range(0.0..10.0));
+                sphere(center, rng.gen_range(0.1..0.8))
+            })
+            .collect();
+        let container = ContainerRecord::Box {
+            min: [0.0; 3],
+            max: [10.0; 3],
+            periodic: [true, true, false],
+        };
+        let p = packing(container, particles);
+        let grid = Grid::new(&p.container, 37).unwrap();
+        let images = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| {
+                    (
+                        voxelize(&p, &grid, 0u32, u32::MAX, |i, _| i as u32 + 1),
+                        partial_volume(&p, &grid, 2),
+                    )
+                })
+        };
+        let one = images(1);
+        assert!(one.0.iter().filter(|&&l| l > 0).count() > grid.len() / 2);
+        for threads in [2, 5] {
+            assert_eq!(images(threads), one);
+        }
     }
 
     #[test]
