@@ -50,13 +50,62 @@
 //!   crosses the plane; for an inclined disk this is not the disk point nearest to the axis,
 //!   so the test is neither necessary nor sufficient. The exact nearest point is used here;
 //!   the paper's rim point is kept only to tell `cd2` from `cd3`.
-//! * Table I, `sc2`: the depth `sqrt((r_s + r_c)² − L²)` is a half-chord, not a depth; the
-//!   radial overlap `r_s + r_c − L` is used. `sc3`: the printed application point reduces
-//!   to `p_s`; the projection of `p_s` on the base plane is used. `cd2`: the printed depth
-//!   `2r_c − ‖b − pt_c‖` jumps at both ends of the `cd2` range; the overlap
-//!   `r_c + ‖b − pt_c‖` is continuous with `cd1` (depth `r_c` when the rim crosses the axis)
-//!   and with `cd3` (depth `2r_c`). `d2`: the printed sign pushes the first cylinder into
-//!   the second; the sign is mirrored from `d1`.
+//! * Table I gives the force `F_c` on the cylinder of Algorithm 1 and on the first body
+//!   of Algorithms 2–4; here the force on the second argument of a test is
+//!   `depth · normal`, so `F_c = depth · normal` for `sc*` and `−depth · normal` for the
+//!   others. Entry by entry (`û = l_c/‖l_c‖`, `ŵ` the unit vector from the axis towards
+//!   `p_s`, so `p_c − p_s + X û = −L ŵ`):
+//!   - `sc2`, depth: the printed `√((r_s + r_c)² − L²)` is a half-chord, not a depth;
+//!     the radial overlap `r_s + r_c − L` is used (the exact penetration depth when `p_s`
+//!     is outside the cylinder, and the separating distance along `ŵ` when inside).
+//!   - `sc2`, direction: the printed `F_c = −√(…) · (−ŵ)` points along `+ŵ`, i.e. it
+//!     pulls the cylinder towards the sphere (a misprinted sign: every other entry is
+//!     repulsive). The repulsive `F_c ∥ −ŵ` is used. With it and the radial depth, the
+//!     printed point `p_s + (r_s − depth) F̂_c` is the cylinder surface point
+//!     `p_s − (L − r_c) ŵ`; the middle of the overlap, `p_s − (r_s − depth/2) ŵ`, is used.
+//!     Both lie on the line of action of `F_c`, so force and moment are the same.
+//!   - `sc3`, point: the printed application point reduces to `p_s`; the projection of
+//!     `p_s` on the base plane is used.
+//!   - `sc4`, depth and direction: the printed `√(r_s² − (|X| − h)²) + r_c − L` along
+//!     `(pt_c − p_s)/‖pt_c − p_s‖ = −ŵ` is the overlap, *in the base plane*, of the
+//!     sphere's section with the base disk: a true separating distance, but only for a
+//!     purely radial push. At `L → r_c` it tends to `√(r_s² − (|X| − h)²)` sideways
+//!     (and its direction is `0/0` at `L = r_c`) while `sc3` pushes by `h + r_s − |X|`
+//!     along the axis: the force jumps where the sphere centre crosses the side line.
+//!     Here the exact minimal translation is used: with `q` the rim point nearest `p_s`,
+//!     depth `r_s − ‖q − p_s‖` along `(q − p_s)/‖q − p_s‖`, applied at `q`. It equals
+//!     `sc3` at `L = r_c` and `sc2` at `|X| = h`, so the force is continuous over all
+//!     three types. (The printed point, at the axial height `X` of `p_s`, lies outside
+//!     the cylinder.)
+//!   - `cd1`, point (and the `b`, `pt_c` of its force): the printed `pt_c` is the rim
+//!     point nearest, in the disk plane, to the point `a` where the axis crosses that
+//!     plane; for an inclined disk it is not the disk point nearest the axis and may lie
+//!     outside the cylinder while the disk meets it (pairs the exact test reports), where
+//!     the printed magnitude `r_c − ‖b − pt_c‖` is negative (attraction). The exact
+//!     nearest disk point `x` (see Algorithm 3 above) replaces `pt_c`: point `x`, depth
+//!     `r_c − dist(x, axis)`, direction from the axis to `x`. Both points coincide when
+//!     the disk is perpendicular to the axis.
+//!   - `cd2`, depth: the printed `2r_c − ‖b − pt_c‖` jumps at both ends of the `cd2`
+//!     range; the overlap `r_c + ‖b − pt_c‖` is continuous with `cd1` (depth `r_c` when
+//!     the rim crosses the axis) and with `cd3` (depth `2r_c`).
+//!   - `d1`/`d2`, magnitude: the printed `r_{d2} − ‖pt − p_{d2}‖` (`d1`) and
+//!     `r_{d1} − ‖pt − p_{d1}‖` (`d2`) are lengths in the plane of the crossing disk,
+//!     while the force acts along the *other* disk's normal, at an angle `θ` to that
+//!     plane; they shrink as the crossing disk's centre goes deeper, and the `d1` one
+//!     also measures from the foot `pt` of `p_{d1}`, not of `p_{d2}`, so it turns
+//!     negative for disks whose chords overlap though `‖pt − p_{d2}‖ > r_{d2}` (the
+//!     corrected Algorithm 2 above). Used instead: how far the crossing disk reaches
+//!     through the plane of the other along that normal, `d1`:
+//!     `max_{y ∈ D₂} (p_{d1} − y)·n_{d1} = (p_{d1} − p_{d2})·n_{d1} + r_{d2} sin θ`, `d2`:
+//!     `(p_{d2} − p_{d1})·n_{d2} + r_{d1} sin θ` (when the crossing disk's centre lies on
+//!     the outer side of the other plane, its in-plane overlap `r − dist(centre, L)`
+//!     times `sin θ`, a penetration along the force). The application
+//!     point is the middle of the common chord, which lies in both disks, instead of the
+//!     foot `pt` of `p_{d1}`, which need not lie in the second disk.
+//!   - `d2`, sign: the printed sign pushes the first cylinder into the second; the sign
+//!     is mirrored from `d1`.
+//!   - `sc1` (depth `2‖l_c‖`, along `p_c − p_s`, at `p_c`), `cc1` and `cd3` follow the
+//!     table.
 //! * The degenerate cases the paper leaves out (parallel axes, intersecting axes, coincident
 //!   centres, an axis parallel to a disk) are handled explicitly; no division by a vanishing
 //!   quantity is ever made, so no NaN is returned for valid shapes.
