@@ -668,7 +668,14 @@ fn disk_point_nearest_axis(c: &Cylinder, d: &Disk) -> (Vector3<f64>, bool) {
     let u_plane = u - n * un;
     let e1 = unit_or(u_plane, || any_perpendicular(&n));
     let e2 = cross(&n, &e1);
-    let lam1 = un * un;
+    // An axis parallel to the disk within `PARALLEL_SINE` is taken as parallel: there `b₁`
+    // (exactly `−u·n (w⊥·n)/|u − (u·n)n|`, about `u·n` times a length) is rounding noise
+    // of the same order, and `−b₁/λ₁` would put a spurious piercing point anywhere.
+    let lam1 = if un.abs() > PARALLEL_SINE {
+        un * un
+    } else {
+        0.0
+    };
     let w = d.center - c.center;
     let w_perp = w - u * w.dot(&u);
     let b1 = w_perp.dot(&e1);
@@ -1007,7 +1014,14 @@ fn cylinder_cylinder_early(a: &Cylinder, b: &Cylinder, verdict_only: bool) -> Ea
         let pt1 = a.center + u1 * s1;
         let pt2 = b.center + u2 * s2;
         let sign = if d.dot(&n) >= 0.0 { 1.0 } else { -1.0 };
-        let normal = unit_or(pt2 - pt1, || n * sign);
+        // `pt₂ − pt₁ = (d·n) n`. When the axes (nearly) cross, its computed value is
+        // rounding noise pointing anywhere, not along the axes' common normal: the exact
+        // `±n` is used whenever the two disagree (elsewhere they agree to rounding).
+        let along = n * sign;
+        let normal = match (pt2 - pt1).try_normalize(0.0) {
+            Some(v) if v.dot(&along) > 1.0 - 1e-9 => v,
+            _ => along,
+        };
         return Early::Meet(Some(CylinderContact::Cc1(Contact {
             point: 0.5 * (pt1 + pt2),
             normal,
@@ -1262,6 +1276,53 @@ mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
     use rand_xoshiro::Xoshiro256PlusPlus;
+
+    /// Crossing axes: `pt₂ − pt₁` is rounding noise, the `cc1` normal must still be the
+    /// common normal of the axes (perpendicular to both), and moving the second cylinder
+    /// by the depth along it must bring the curved faces to touching (axes `r₁ + r₂` apart).
+    #[test]
+    fn crossing_axes_push_along_the_common_normal() {
+        let a = Cylinder::new(
+            Vector3::new(0.1, 0.2, 0.3),
+            Vector3::new(0.3, 0.7, -0.2),
+            0.5,
+        );
+        let s = 0.37;
+        let u2 = Vector3::new(-0.6, 0.1, 0.9).normalize();
+        let b = Cylinder::new(a.center + a.axis() * s - u2 * 0.2, u2 * 0.8, 0.3);
+        let Some(CylinderContact::Cc1(c)) = intersect_cylinder_cylinder(&a, &b) else {
+            panic!("crossing axes inside both cylinders are cc1");
+        };
+        assert!(c.normal.dot(&a.axis()).abs() < 1e-12 && c.normal.dot(&b.axis()).abs() < 1e-12);
+        assert!((c.depth - 0.8).abs() < 1e-12);
+        let moved = Cylinder::new(b.center + c.normal * c.depth, b.half_axis, b.radius);
+        let d = moved.center - a.center;
+        let n = a.axis().cross(&b.axis()).normalize();
+        assert!((d.dot(&n).abs() - 0.8).abs() < 1e-12);
+    }
+
+    /// An axis parallel to a disk (to rounding: `u·n = 4·10⁻¹⁷`) and off its plane never
+    /// pierces it: the disk cuts the cylinder lengthwise, `cd1`, with depth `r_c` minus
+    /// the distance of the plane from the axis. (A pair from the random oracle test; the
+    /// rounding noise of `b₁` over `λ₁ = (u·n)²` used to report `cd2`, depth 1.54.)
+    #[test]
+    fn axis_parallel_to_a_disk_does_not_pierce_it() {
+        let c = Cylinder::new(
+            Vector3::new(-0.7826017686483331, -0.9613558590781257, 0.8574187671653681),
+            Vector3::new(1.0539734210285803, 0.23260460922391146, -0.7380784487003673),
+            0.9889950808401174,
+        );
+        let d = Disk {
+            center: Vector3::new(-0.9772649379005542, -0.9931136662000853, 0.749987769300805),
+            radius: 0.7473048764632226,
+            normal: Vector3::new(0.2949123338338394, -0.9476412695185086, 0.1224856712355668),
+        };
+        assert!(c.axis().dot(&d.normal).abs() < 1e-15);
+        let found = intersect_disk_cylinder_side(&c, &d).expect("the disk cuts the cylinder");
+        assert_eq!(found.kind, DiskSideKind::Cd1);
+        let plane = d.normal.dot(&(d.center - c.center)).abs();
+        assert!((found.contact.depth - (c.radius - plane)).abs() < 1e-9);
+    }
 
     /// The plain verdict of Algorithm 4: the early steps (without the inscribed balls),
     /// else the base tests.
