@@ -50,13 +50,62 @@
 //!   crosses the plane; for an inclined disk this is not the disk point nearest to the axis,
 //!   so the test is neither necessary nor sufficient. The exact nearest point is used here;
 //!   the paper's rim point is kept only to tell `cd2` from `cd3`.
-//! * Table I, `sc2`: the depth `sqrt((r_s + r_c)² − L²)` is a half-chord, not a depth; the
-//!   radial overlap `r_s + r_c − L` is used. `sc3`: the printed application point reduces
-//!   to `p_s`; the projection of `p_s` on the base plane is used. `cd2`: the printed depth
-//!   `2r_c − ‖b − pt_c‖` jumps at both ends of the `cd2` range; the overlap
-//!   `r_c + ‖b − pt_c‖` is continuous with `cd1` (depth `r_c` when the rim crosses the axis)
-//!   and with `cd3` (depth `2r_c`). `d2`: the printed sign pushes the first cylinder into
-//!   the second; the sign is mirrored from `d1`.
+//! * Table I gives the force `F_c` on the cylinder of Algorithm 1 and on the first body
+//!   of Algorithms 2–4; here the force on the second argument of a test is
+//!   `depth · normal`, so `F_c = depth · normal` for `sc*` and `−depth · normal` for the
+//!   others. Entry by entry (`û = l_c/‖l_c‖`, `ŵ` the unit vector from the axis towards
+//!   `p_s`, so `p_c − p_s + X û = −L ŵ`):
+//!   - `sc2`, depth: the printed `√((r_s + r_c)² − L²)` is a half-chord, not a depth;
+//!     the radial overlap `r_s + r_c − L` is used (the exact penetration depth when `p_s`
+//!     is outside the cylinder, and the separating distance along `ŵ` when inside).
+//!   - `sc2`, direction: the printed `F_c = −√(…) · (−ŵ)` points along `+ŵ`, i.e. it
+//!     pulls the cylinder towards the sphere (a misprinted sign: every other entry is
+//!     repulsive). The repulsive `F_c ∥ −ŵ` is used. With it and the radial depth, the
+//!     printed point `p_s + (r_s − depth) F̂_c` is the cylinder surface point
+//!     `p_s − (L − r_c) ŵ`; the middle of the overlap, `p_s − (r_s − depth/2) ŵ`, is used.
+//!     Both lie on the line of action of `F_c`, so force and moment are the same.
+//!   - `sc3`, point: the printed application point reduces to `p_s`; the projection of
+//!     `p_s` on the base plane is used.
+//!   - `sc4`, depth and direction: the printed `√(r_s² − (|X| − h)²) + r_c − L` along
+//!     `(pt_c − p_s)/‖pt_c − p_s‖ = −ŵ` is the overlap, *in the base plane*, of the
+//!     sphere's section with the base disk: a true separating distance, but only for a
+//!     purely radial push. At `L → r_c` it tends to `√(r_s² − (|X| − h)²)` sideways
+//!     (and its direction is `0/0` at `L = r_c`) while `sc3` pushes by `h + r_s − |X|`
+//!     along the axis: the force jumps where the sphere centre crosses the side line.
+//!     Here the exact minimal translation is used: with `q` the rim point nearest `p_s`,
+//!     depth `r_s − ‖q − p_s‖` along `(q − p_s)/‖q − p_s‖`, applied at `q`. It equals
+//!     `sc3` at `L = r_c` and `sc2` at `|X| = h`, so the force is continuous over all
+//!     three types. (The printed point, at the axial height `X` of `p_s`, lies outside
+//!     the cylinder.)
+//!   - `cd1`, point (and the `b`, `pt_c` of its force): the printed `pt_c` is the rim
+//!     point nearest, in the disk plane, to the point `a` where the axis crosses that
+//!     plane; for an inclined disk it is not the disk point nearest the axis and may lie
+//!     outside the cylinder while the disk meets it (pairs the exact test reports), where
+//!     the printed magnitude `r_c − ‖b − pt_c‖` is negative (attraction). The exact
+//!     nearest disk point `x` (see Algorithm 3 above) replaces `pt_c`: point `x`, depth
+//!     `r_c − dist(x, axis)`, direction from the axis to `x`. Both points coincide when
+//!     the disk is perpendicular to the axis.
+//!   - `cd2`, depth: the printed `2r_c − ‖b − pt_c‖` jumps at both ends of the `cd2`
+//!     range; the overlap `r_c + ‖b − pt_c‖` is continuous with `cd1` (depth `r_c` when
+//!     the rim crosses the axis) and with `cd3` (depth `2r_c`).
+//!   - `d1`/`d2`, magnitude: the printed `r_{d2} − ‖pt − p_{d2}‖` (`d1`) and
+//!     `r_{d1} − ‖pt − p_{d1}‖` (`d2`) are lengths in the plane of the crossing disk,
+//!     while the force acts along the *other* disk's normal, at an angle `θ` to that
+//!     plane; they shrink as the crossing disk's centre goes deeper, and the `d1` one
+//!     also measures from the foot `pt` of `p_{d1}`, not of `p_{d2}`, so it turns
+//!     negative for disks whose chords overlap though `‖pt − p_{d2}‖ > r_{d2}` (the
+//!     corrected Algorithm 2 above). Used instead: how far the crossing disk reaches
+//!     through the plane of the other along that normal, `d1`:
+//!     `max_{y ∈ D₂} (p_{d1} − y)·n_{d1} = (p_{d1} − p_{d2})·n_{d1} + r_{d2} sin θ`, `d2`:
+//!     `(p_{d2} − p_{d1})·n_{d2} + r_{d1} sin θ` (when the crossing disk's centre lies on
+//!     the outer side of the other plane, its in-plane overlap `r − dist(centre, L)`
+//!     times `sin θ`, a penetration along the force). The application
+//!     point is the middle of the common chord, which lies in both disks, instead of the
+//!     foot `pt` of `p_{d1}`, which need not lie in the second disk.
+//!   - `d2`, sign: the printed sign pushes the first cylinder into the second; the sign
+//!     is mirrored from `d1`.
+//!   - `sc1` (depth `2‖l_c‖`, along `p_c − p_s`, at `p_c`), `cc1` and `cd3` follow the
+//!     table.
 //! * The degenerate cases the paper leaves out (parallel axes, intersecting axes, coincident
 //!   centres, an axis parallel to a disk) are handled explicitly; no division by a vanishing
 //!   quantity is ever made, so no NaN is returned for valid shapes.
@@ -619,7 +668,14 @@ fn disk_point_nearest_axis(c: &Cylinder, d: &Disk) -> (Vector3<f64>, bool) {
     let u_plane = u - n * un;
     let e1 = unit_or(u_plane, || any_perpendicular(&n));
     let e2 = cross(&n, &e1);
-    let lam1 = un * un;
+    // An axis parallel to the disk within `PARALLEL_SINE` is taken as parallel: there `b₁`
+    // (exactly `−u·n (w⊥·n)/|u − (u·n)n|`, about `u·n` times a length) is rounding noise
+    // of the same order, and `−b₁/λ₁` would put a spurious piercing point anywhere.
+    let lam1 = if un.abs() > PARALLEL_SINE {
+        un * un
+    } else {
+        0.0
+    };
     let w = d.center - c.center;
     let w_perp = w - u * w.dot(&u);
     let b1 = w_perp.dot(&e1);
@@ -958,7 +1014,14 @@ fn cylinder_cylinder_early(a: &Cylinder, b: &Cylinder, verdict_only: bool) -> Ea
         let pt1 = a.center + u1 * s1;
         let pt2 = b.center + u2 * s2;
         let sign = if d.dot(&n) >= 0.0 { 1.0 } else { -1.0 };
-        let normal = unit_or(pt2 - pt1, || n * sign);
+        // `pt₂ − pt₁ = (d·n) n`. When the axes (nearly) cross, its computed value is
+        // rounding noise pointing anywhere, not along the axes' common normal: the exact
+        // `±n` is used whenever the two disagree (elsewhere they agree to rounding).
+        let along = n * sign;
+        let normal = match (pt2 - pt1).try_normalize(0.0) {
+            Some(v) if v.dot(&along) > 1.0 - 1e-9 => v,
+            _ => along,
+        };
         return Early::Meet(Some(CylinderContact::Cc1(Contact {
             point: 0.5 * (pt1 + pt2),
             normal,
@@ -1213,6 +1276,53 @@ mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
     use rand_xoshiro::Xoshiro256PlusPlus;
+
+    /// Crossing axes: `pt₂ − pt₁` is rounding noise, the `cc1` normal must still be the
+    /// common normal of the axes (perpendicular to both), and moving the second cylinder
+    /// by the depth along it must bring the curved faces to touching (axes `r₁ + r₂` apart).
+    #[test]
+    fn crossing_axes_push_along_the_common_normal() {
+        let a = Cylinder::new(
+            Vector3::new(0.1, 0.2, 0.3),
+            Vector3::new(0.3, 0.7, -0.2),
+            0.5,
+        );
+        let s = 0.37;
+        let u2 = Vector3::new(-0.6, 0.1, 0.9).normalize();
+        let b = Cylinder::new(a.center + a.axis() * s - u2 * 0.2, u2 * 0.8, 0.3);
+        let Some(CylinderContact::Cc1(c)) = intersect_cylinder_cylinder(&a, &b) else {
+            panic!("crossing axes inside both cylinders are cc1");
+        };
+        assert!(c.normal.dot(&a.axis()).abs() < 1e-12 && c.normal.dot(&b.axis()).abs() < 1e-12);
+        assert!((c.depth - 0.8).abs() < 1e-12);
+        let moved = Cylinder::new(b.center + c.normal * c.depth, b.half_axis, b.radius);
+        let d = moved.center - a.center;
+        let n = a.axis().cross(&b.axis()).normalize();
+        assert!((d.dot(&n).abs() - 0.8).abs() < 1e-12);
+    }
+
+    /// An axis parallel to a disk (to rounding: `u·n = 4·10⁻¹⁷`) and off its plane never
+    /// pierces it: the disk cuts the cylinder lengthwise, `cd1`, with depth `r_c` minus
+    /// the distance of the plane from the axis. (A pair from the random oracle test; the
+    /// rounding noise of `b₁` over `λ₁ = (u·n)²` used to report `cd2`, depth 1.54.)
+    #[test]
+    fn axis_parallel_to_a_disk_does_not_pierce_it() {
+        let c = Cylinder::new(
+            Vector3::new(-0.7826017686483331, -0.9613558590781257, 0.8574187671653681),
+            Vector3::new(1.0539734210285803, 0.23260460922391146, -0.7380784487003673),
+            0.9889950808401174,
+        );
+        let d = Disk {
+            center: Vector3::new(-0.9772649379005542, -0.9931136662000853, 0.749987769300805),
+            radius: 0.7473048764632226,
+            normal: Vector3::new(0.2949123338338394, -0.9476412695185086, 0.1224856712355668),
+        };
+        assert!(c.axis().dot(&d.normal).abs() < 1e-15);
+        let found = intersect_disk_cylinder_side(&c, &d).expect("the disk cuts the cylinder");
+        assert_eq!(found.kind, DiskSideKind::Cd1);
+        let plane = d.normal.dot(&(d.center - c.center)).abs();
+        assert!((found.contact.depth - (c.radius - plane)).abs() < 1e-9);
+    }
 
     /// The plain verdict of Algorithm 4: the early steps (without the inscribed balls),
     /// else the base tests.
