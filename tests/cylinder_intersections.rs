@@ -145,24 +145,7 @@ fn gjk_distance(a: &Shape, b: &Shape) -> (f64, f64) {
 
 /// The closest-point difference vector `v = x_a − x_b` (for placing bodies).
 fn gjk_vector(a: &Shape, b: &Shape) -> V {
-    let diff = |d: &V| support(a, d) - support(b, &-d);
-    let mut simplex = vec![diff(&V::x())];
-    let mut v = simplex[0];
-    for _ in 0..2000 {
-        let (vv, sub) = closest_on_simplex(&simplex);
-        v = vv;
-        let vn = v.norm();
-        if vn < 1e-15 {
-            return V::zeros();
-        }
-        let w = diff(&-v);
-        if vn - v.dot(&w) / vn <= 1e-14 * vn.max(1.0) {
-            break;
-        }
-        simplex = sub;
-        simplex.push(w);
-    }
-    v
+    gjk_vector_of(&|d| support(a, d), &|d| support(b, d), 1e-14)
 }
 
 fn eroded(s: &Shape, delta: f64) -> Shape {
@@ -512,8 +495,9 @@ fn close_v(a: &V, b: &V, tol: f64, what: &str) {
     );
 }
 
-/// Closest-point difference `x_a − x_b` of two convex sets given by support maps (GJK).
-fn gjk_vector_of(sa: &dyn Fn(&V) -> V, sb: &dyn Fn(&V) -> V) -> V {
+/// Closest-point difference `x_a − x_b` of two convex sets given by support maps (GJK),
+/// stopped when a step gains less than `tol` (relative) or finds no new support point.
+fn gjk_vector_of(sa: &dyn Fn(&V) -> V, sb: &dyn Fn(&V) -> V, tol: f64) -> V {
     let diff = |d: &V| sa(d) - sb(&-d);
     let mut simplex = vec![diff(&V::x())];
     let mut v = simplex[0];
@@ -525,8 +509,7 @@ fn gjk_vector_of(sa: &dyn Fn(&V) -> V, sb: &dyn Fn(&V) -> V) -> V {
             return V::zeros();
         }
         let w = diff(&-v);
-        if vn - v.dot(&w) / vn <= 1e-13 * vn.max(1.0) || sub.iter().any(|p| (p - w).norm() < 1e-15)
-        {
+        if vn - v.dot(&w) / vn <= tol * vn.max(1.0) || sub.iter().any(|p| (p - w).norm() < 1e-15) {
             break;
         }
         simplex = sub;
@@ -903,6 +886,7 @@ fn check_disk_side(
                             + u * (reach * dir.dot(&u).signum())
                             + disk_support(V::zeros(), u, TUBE, dir)
                     },
+                    1e-13,
                 );
                 if v.norm() == 0.0 {
                     // Within the tube of the axis: not compared.
