@@ -7,9 +7,9 @@
 //! and its body for [`crate::verify`]. Each kind implements it in its own file
 //! ([`sphere`], [`cylinder`], [`ellipsoid`]), and [`ParticleRecord`] is the one list of
 //! kinds: a new kind is a new file here and, in this one, a variant, its arms in the
-//! dispatch macros `each_kind!` and `map_kind!` and its entry in [`PHASE_NAMES`]. Exporters and analyses call the methods of [`ParticleRecord`] and never match
-//! on its variants, except where a format is defined for one kind (xyzd and LAMMPS take
-//! spheres).
+//! dispatch macros `each_kind!` and `map_kind!` and its entry in [`PHASE_NAMES`].
+//! Exporters and analyses call the methods of [`ParticleRecord`] and never match on its
+//! variants, except where a format is defined for one kind (xyzd and LAMMPS take spheres).
 
 pub mod cylinder;
 pub mod ellipsoid;
