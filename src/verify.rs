@@ -307,42 +307,24 @@ pub fn verify_with(packing: &Packing, options: &VerifyOptions) -> Verification {
         out.violate(format!("malformed packing: {e}"));
         return out;
     }
-    if packing
-        .particles
-        .iter()
-        .any(|p| matches!(p.body(), Body::Convex(_)))
-    {
-        return verify_convex_with(packing, terms);
-    }
     // Boxed: a sphere costs 8 bytes here, not the 88 of an inline `Option<Oriented>` (the
-    // verification of a 10⁶-sphere packing must not outgrow the simulation's memory).
-    let (balls, oriented): (Vec<Ball>, Vec<Option<Box<Oriented>>>) = packing
-        .particles
-        .iter()
-        .map(|p| match p.body() {
-            Body::Ball { center, radius } => (
-                Ball {
-                    c: center,
-                    r: radius,
-                },
-                None,
-            ),
+    // verification of a 10⁶-sphere packing must not outgrow the simulation's memory). A
+    // packing with any other convex body goes to the convex check.
+    let mut balls = Vec::with_capacity(packing.particles.len());
+    let mut oriented: Vec<Option<Box<Oriented>>> = Vec::with_capacity(packing.particles.len());
+    for p in &packing.particles {
+        let (c, r, o) = match p.body() {
+            Body::Ball { center, radius } => (center, radius, None),
             Body::Ellipsoid {
                 center,
                 bound,
                 oriented,
-            } => (
-                Ball {
-                    c: center,
-                    r: bound,
-                },
-                Some(Box::new(oriented)),
-            ),
-            Body::Convex(_) => {
-                unreachable!("packings with other convex bodies go to verify_convex_with")
-            }
-        })
-        .unzip();
+            } => (center, bound, Some(Box::new(oriented))),
+            Body::Convex(_) => return verify_convex_with(packing, terms),
+        };
+        balls.push(Ball { c, r });
+        oriented.push(o);
+    }
     let (tol, gap, wall_gap) = (terms.tol, terms.gap, terms.wall_gap);
     let mut out = Verification::new(balls.len(), balls.len(), tol);
     for problem in terms.problems {

@@ -334,27 +334,7 @@ pub fn jamming_report(
 /// gap, ellipsoids with their shape matrices (from the independent check) and degrees of
 /// freedom.
 fn bodies_of(packing: &Packing) -> Result<Vec<Body>, JammingError> {
-    let has_ellipsoids = packing
-        .particles
-        .iter()
-        .any(|p| matches!(p.body(), Checked::Ellipsoid { .. }));
-    if has_ellipsoids {
-        // The scale factor of the gap is that of the bodies as written: a claimed gap would
-        // turn them into parallel bodies, which are no ellipsoids.
-        if packing.min_gap > 0.0 || packing.wall_gap() > 0.0 {
-            return Err(JammingError::EllipsoidFile(format!(
-                "min_gap = {}, wall_gap = {} (must be 0)",
-                packing.min_gap,
-                packing.wall_gap()
-            )));
-        }
-        if !matches!(packing.container, ContainerRecord::Box { .. }) {
-            return Err(JammingError::EllipsoidFile(
-                "the container is a cylinder (must be a box)".into(),
-            ));
-        }
-    }
-    packing
+    let bodies = packing
         .particles
         .iter()
         .enumerate()
@@ -377,7 +357,24 @@ fn bodies_of(packing: &Packing) -> Result<Vec<Body>, JammingError> {
             }),
             Checked::Convex(_) => Err(JammingError::Unsupported(i, p.kind())),
         })
-        .collect()
+        .collect::<Result<Vec<Body>, JammingError>>()?;
+    if bodies.iter().any(|b| b.shape.is_some()) {
+        // The scale factor of the gap is that of the bodies as written: a claimed gap would
+        // turn them into parallel bodies, which are no ellipsoids.
+        if packing.min_gap > 0.0 || packing.wall_gap() > 0.0 {
+            return Err(JammingError::EllipsoidFile(format!(
+                "min_gap = {}, wall_gap = {} (must be 0)",
+                packing.min_gap,
+                packing.wall_gap()
+            )));
+        }
+        if !matches!(packing.container, ContainerRecord::Box { .. }) {
+            return Err(JammingError::EllipsoidFile(
+                "the container is a cylinder (must be a box)".into(),
+            ));
+        }
+    }
+    Ok(bodies)
 }
 
 /// The contacts with relative gap below `reach` (pairs and walls), and the unit vectors of

@@ -233,7 +233,7 @@ impl RecordShape for EllipsoidRecord {
         let a = self.semi_axes;
         Body::Ellipsoid {
             center: self.center,
-            bound: a.iter().copied().fold(f64::NAN, f64::max),
+            bound: self.bounding_radius(),
             oriented: Oriented {
                 m: self.shape_matrix(),
                 volume: self.volume(),
