@@ -22,7 +22,7 @@
 //!
 //! The default feature `cli` builds the `densepack` binary and its dependencies (clap,
 //! indicatif, plotters, cpu-time); the library needs none of them:
-//! `densepack = { version = "0.6", default-features = false }`.
+//! `densepack = { version = "0.7", default-features = false }`.
 //!
 //! # Example
 //!
