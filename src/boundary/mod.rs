@@ -24,7 +24,7 @@ pub type WallId = u8;
 ///
 /// Implementers guarantee: [`Boundary::minimum_image`] returns the shortest periodic image
 /// of a separation as long as it is shorter than half the box length on every periodic axis;
-/// [`Boundary::predict_wall`] never reports a contact later than the true first contact of
+/// [`Walls::predict_wall`] never reports a contact later than the true first contact of
 /// the growing bounding sphere with a wall.
 pub trait Boundary: Clone + Send + Sync + 'static {
     /// The container's walls ([`Walls`]): the container itself when it has any,
