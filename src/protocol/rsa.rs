@@ -101,83 +101,79 @@ pub fn rsa_spheres<B: Boundary, R: Rng>(
         n,
     );
     let streams: u64 = rng.gen();
-    // On a worker of the pool, so that each batch's parallel pass starts there instead of
-    // being handed over from this thread and waited for (thousands of batches).
-    rayon::scope(|_| {
-        let mut centres = vec![Vec3::zeros(); n];
-        let mut volume = 0.0;
-        let mut placed = 0;
-        let mut batch_placed: Vec<usize> = Vec::with_capacity(MAX_BATCH);
-        while placed < n {
-            let batch = &order[placed..(placed + (placed / 8).clamp(1, MAX_BATCH)).min(n)];
-            let placed_before: &[Vec3] = &centres;
-            let grid_before = &grid;
-            // Each sphere's first candidate clear of the spheres placed before the batch.
-            let firsts: Vec<Search> = batch
-                .par_iter()
-                .map(|&i| {
-                    let mut search = Search {
-                        stream: Xoshiro256PlusPlus::seed_from_u64(streams.wrapping_add(i as u64)),
-                        failures: 0,
-                        outcome: Outcome::Exhausted,
-                    };
-                    search.run(max_failures, cancel, |stream| {
-                        let r = radii[i];
-                        boundary.sample_center(r + wall_gap, stream).filter(|&c| {
-                            is_free(grid_before, boundary, placed_before, radii, c, r, gap)
-                        })
-                    });
-                    search
-                })
-                .collect();
-            // In order: a candidate clear of the spheres before the batch needs testing only
-            // against the batch's spheres placed so far (a short list, the same test as
-            // `is_free`); one that meets them goes on along its stream against everything.
-            batch_placed.clear();
-            for (&i, mut search) in batch.iter().zip(firsts) {
-                let r = radii[i];
-                let clear_of_batch = |c: &Vec3| {
-                    batch_placed.iter().all(|&j| {
-                        let mut dr = c - centres[j];
-                        boundary.minimum_image(&mut dr);
-                        let contact = r + radii[j] + gap;
-                        dr.norm_squared() >= contact * contact
-                    })
+    let mut centres = vec![Vec3::zeros(); n];
+    let mut volume = 0.0;
+    let mut placed = 0;
+    let mut batch_placed: Vec<usize> = Vec::with_capacity(MAX_BATCH);
+    while placed < n {
+        let batch = &order[placed..(placed + (placed / 8).clamp(1, MAX_BATCH)).min(n)];
+        let placed_before: &[Vec3] = &centres;
+        let grid_before = &grid;
+        // Each sphere's first candidate clear of the spheres placed before the batch.
+        let firsts: Vec<Search> = batch
+            .par_iter()
+            .map(|&i| {
+                let mut search = Search {
+                    stream: Xoshiro256PlusPlus::seed_from_u64(streams.wrapping_add(i as u64)),
+                    failures: 0,
+                    outcome: Outcome::Exhausted,
                 };
-                if let Outcome::Found(c) = search.outcome {
-                    if !clear_of_batch(&c) {
-                        search.failures += 1;
-                        search.run(max_failures, cancel, |stream| {
-                            boundary
-                                .sample_center(r + wall_gap, stream)
-                                .filter(|&c| is_free(&grid, boundary, &centres, radii, c, r, gap))
-                        });
-                    }
+                search.run(max_failures, cancel, |stream| {
+                    let r = radii[i];
+                    boundary.sample_center(r + wall_gap, stream).filter(|&c| {
+                        is_free(grid_before, boundary, placed_before, radii, c, r, gap)
+                    })
+                });
+                search
+            })
+            .collect();
+        // In order: a candidate clear of the spheres before the batch needs testing only
+        // against the batch's spheres placed so far (a short list, the same test as
+        // `is_free`); one that meets them goes on along its stream against everything.
+        batch_placed.clear();
+        for (&i, mut search) in batch.iter().zip(firsts) {
+            let r = radii[i];
+            let clear_of_batch = |c: &Vec3| {
+                batch_placed.iter().all(|&j| {
+                    let mut dr = c - centres[j];
+                    boundary.minimum_image(&mut dr);
+                    let contact = r + radii[j] + gap;
+                    dr.norm_squared() >= contact * contact
+                })
+            };
+            if let Outcome::Found(c) = search.outcome {
+                if !clear_of_batch(&c) {
+                    search.failures += 1;
+                    search.run(max_failures, cancel, |stream| {
+                        boundary
+                            .sample_center(r + wall_gap, stream)
+                            .filter(|&c| is_free(&grid, boundary, &centres, radii, c, r, gap))
+                    });
                 }
-                match search.outcome {
-                    Outcome::Cancelled => return Err(SeedingError::Cancelled),
-                    Outcome::Exhausted => {
-                        return Err(RsaFailure {
-                            placed,
-                            total: n,
-                            fraction: volume / boundary.volume(),
-                            failures: max_failures,
-                        }
-                        .into())
+            }
+            match search.outcome {
+                Outcome::Cancelled => return Err(SeedingError::Cancelled),
+                Outcome::Exhausted => {
+                    return Err(RsaFailure {
+                        placed,
+                        total: n,
+                        fraction: volume / boundary.volume(),
+                        failures: max_failures,
                     }
-                    Outcome::Found(c) => {
-                        centres[i] = c;
-                        let level = grid.level_for(2.0 * r + gap);
-                        grid.insert(i, grid.cell_at(level, &c));
-                        volume += 4.0 / 3.0 * std::f64::consts::PI * r.powi(3);
-                        batch_placed.push(i);
-                        placed += 1;
-                    }
+                    .into())
+                }
+                Outcome::Found(c) => {
+                    centres[i] = c;
+                    let level = grid.level_for(2.0 * r + gap);
+                    grid.insert(i, grid.cell_at(level, &c));
+                    volume += 4.0 / 3.0 * std::f64::consts::PI * r.powi(3);
+                    batch_placed.push(i);
+                    placed += 1;
                 }
             }
         }
-        Ok(centres)
-    })
+    }
+    Ok(centres)
 }
 
 /// One sphere's walk along its candidate stream.
