@@ -128,18 +128,15 @@ pub fn rsa_spheres<B: Boundary, R: Rng>(
             })
             .collect();
         // In order: a candidate clear of the spheres before the batch needs testing only
-        // against the batch's spheres placed so far (a short list, the same test as
-        // `is_free`); one that meets them goes on along its stream against everything.
+        // against the batch's spheres placed so far (a short list, with `is_free`'s pair
+        // test); one that meets them goes on along its stream against everything.
         batch_placed.clear();
         for (&i, mut search) in batch.iter().zip(firsts) {
             let r = radii[i];
             let clear_of_batch = |c: &Vec3| {
-                batch_placed.iter().all(|&j| {
-                    let mut dr = c - centres[j];
-                    boundary.minimum_image(&mut dr);
-                    let contact = r + radii[j] + gap;
-                    dr.norm_squared() >= contact * contact
-                })
+                batch_placed
+                    .iter()
+                    .all(|&j| keeps_gap(boundary, c, r, &centres[j], radii[j], gap))
             };
             if let Outcome::Found(c) = search.outcome {
                 if !clear_of_batch(&c) {
@@ -218,6 +215,16 @@ impl Search {
     }
 }
 
+/// Whether spheres of radii `r` at `c` and `r_j` at `c_j` are at least `gap` apart (nearest
+/// periodic image): the one pair test of the addition, in the grid search and in a batch.
+#[inline]
+fn keeps_gap<B: Boundary>(boundary: &B, c: &Vec3, r: f64, c_j: &Vec3, r_j: f64, gap: f64) -> bool {
+    let mut dr = c - c_j;
+    boundary.minimum_image(&mut dr);
+    let contact = r + r_j + gap;
+    dr.norm_squared() >= contact * contact
+}
+
 /// Whether a sphere of radius `r` at `c` keeps at least `gap` from every placed sphere.
 /// Spheres registered at a level have `2 r_j + gap` at most its cell width `w`, so a conflict
 /// lies within `r + gap/2 + w/2` of `c` along each axis.
@@ -236,10 +243,7 @@ fn is_free<B: Boundary>(
         let reach = r + 0.5 * gap + 0.5 * grid.level_width(level);
         grid.for_each_within(level, &c, reach, |j| {
             if free {
-                let mut dr = c - centres[j];
-                boundary.minimum_image(&mut dr);
-                let contact = r + radii[j] + gap;
-                free = dr.norm_squared() >= contact * contact;
+                free = keeps_gap(boundary, &c, r, &centres[j], radii[j], gap);
             }
         });
         if !free {
