@@ -19,6 +19,7 @@
 mod common;
 
 use common::{densepack, temp_dir};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use toml::Value;
 
 /// Largest ellipsoid aspect ratio among the scenes this test runs.
@@ -111,6 +112,60 @@ fn unreachable_variant(text: &str, widen: u32) -> Option<String> {
     Some(toml::to_string(&scene).expect("serialisable"))
 }
 
+/// Runs the unreachable variant of one shipped scene and checks its verdict; `false` for a
+/// scene without growth stages (not run).
+fn fails_with_a_verdict(path: &std::path::Path, dir: &std::path::Path) -> bool {
+    let text = std::fs::read_to_string(path).unwrap();
+    let name = path.file_name().unwrap().to_string_lossy().to_string();
+    let scene = dir.join(&name);
+    let out = dir.join(format!("{name}.json"));
+    let mut widen = 0;
+    let (variant, result) = loop {
+        let Some(variant) = unreachable_variant(&text, widen) else {
+            return false;
+        };
+        std::fs::write(&scene, &variant).unwrap();
+        let result = densepack(&[
+            "run",
+            scene.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ]);
+        let refused = String::from_utf8_lossy(&result.stderr)
+            .contains("a periodic box edge must exceed the largest bounding diameter");
+        if refused && widen < 2 {
+            widen += 1;
+            continue;
+        }
+        break (variant, result);
+    };
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert_eq!(
+        result.status.code(),
+        Some(1),
+        "{name}: expected exit 1, got {:?}\n{stderr}\nscene:\n{variant}",
+        result.status.code()
+    );
+    // The last stage ends by the jamming guard; an earlier stage of a shrunk concrete
+    // scene may already fail by its own stall criterion (`stall_epsilon`), also a verdict.
+    let by_guard = stderr.contains("jammed_before_goal after")
+        && stderr.contains("the particles jammed first")
+        && (stderr.contains("packing_fraction = 0.95")
+            || stderr.contains("packing_fraction = 0.74"));
+    let stalled = stderr.contains("stalled after");
+    assert!(
+        stderr.contains("stopped without reaching its goal (") && (by_guard || stalled),
+        "{name}: the run must end at jamming (or stall) and name the goal it missed:\n{stderr}"
+    );
+    assert!(
+        !out.exists(),
+        "{name}: a failed run wrote {}",
+        out.display()
+    );
+    true
+}
+
 #[test]
 fn every_shipped_scene_with_an_unreachable_goal_fails_with_a_verdict() {
     let dir = temp_dir("unreachable");
@@ -120,61 +175,23 @@ fn every_shipped_scene_with_an_unreachable_goal_fails_with_a_verdict() {
         .filter(|p| p.extension().is_some_and(|e| e == "toml"))
         .collect();
     scenes.sort();
-    let mut ran = 0;
-    for path in &scenes {
-        let text = std::fs::read_to_string(path).unwrap();
-        let name = path.file_name().unwrap().to_string_lossy().to_string();
-        let scene = dir.join(&name);
-        let out = dir.join(format!("{name}.json"));
-        let mut widen = 0;
-        let (variant, result) = loop {
-            let Some(variant) = unreachable_variant(&text, widen) else {
-                break (None, None);
-            };
-            std::fs::write(&scene, &variant).unwrap();
-            let result = densepack(&[
-                "run",
-                scene.to_str().unwrap(),
-                "--out",
-                out.to_str().unwrap(),
-                "--quiet",
-            ]);
-            let refused = String::from_utf8_lossy(&result.stderr)
-                .contains("a periodic box edge must exceed the largest bounding diameter");
-            if refused && widen < 2 {
-                widen += 1;
-                continue;
-            }
-            break (Some(variant), Some(result));
-        };
-        let (Some(variant), Some(result)) = (variant, result) else {
-            continue;
-        };
-        let stderr = String::from_utf8_lossy(&result.stderr);
-        assert_eq!(
-            result.status.code(),
-            Some(1),
-            "{name}: expected exit 1, got {:?}\n{stderr}\nscene:\n{variant}",
-            result.status.code()
-        );
-        // The last stage ends by the jamming guard; an earlier stage of a shrunk concrete
-        // scene may already fail by its own stall criterion (`stall_epsilon`), also a verdict.
-        let by_guard = stderr.contains("jammed_before_goal after")
-            && stderr.contains("the particles jammed first")
-            && (stderr.contains("packing_fraction = 0.95")
-                || stderr.contains("packing_fraction = 0.74"));
-        let stalled = stderr.contains("stalled after");
-        assert!(
-            stderr.contains("stopped without reaching its goal (") && (by_guard || stalled),
-            "{name}: the run must end at jamming (or stall) and name the goal it missed:\n{stderr}"
-        );
-        assert!(
-            !out.exists(),
-            "{name}: a failed run wrote {}",
-            out.display()
-        );
-        ran += 1;
-    }
+    // The scenes are independent single-threaded runs: one worker per core takes the next.
+    // A failed check panics in its worker, which fails the scope (the message is printed).
+    let next = AtomicUsize::new(0);
+    let ran = AtomicUsize::new(0);
+    let workers = std::thread::available_parallelism().map_or(1, |n| n.get());
+    std::thread::scope(|scope| {
+        for _ in 0..workers {
+            scope.spawn(|| {
+                while let Some(path) = scenes.get(next.fetch_add(1, Ordering::Relaxed)) {
+                    if fails_with_a_verdict(path, &dir) {
+                        ran.fetch_add(1, Ordering::Relaxed);
+                    }
+                }
+            });
+        }
+    });
+    let ran = ran.into_inner();
     assert!(ran >= 10, "only {ran} shipped scenes have growth stages");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -2,6 +2,9 @@
 """Reads densepack exports back with real readers and checks them against the packing JSON.
 
 Usage: check_exports.py KIND PACKING.json FILE [options]
+       check_exports.py --batch CHECKS.tsv   (one check per line: NAME, KIND, PACKING.json,
+                                              FILE, options, tab-separated; all are run, the
+                                              failures named, exit 1 if any failed)
   gmsh  FILE.msh  [--shrink S] [--interface T] [--labels particle] [--tolerance 0.02]
         meshio reads the mesh; volumes per physical group (sum of tetrahedron volumes: per
         kind, or per particle with --labels particle) must match the exact volumes computed
@@ -35,6 +38,7 @@ Exit status 0 when every check passes; a failed check raises.
 import json
 import math
 import sys
+import traceback
 
 import numpy as np
 
@@ -543,8 +547,7 @@ def check_voxels(packing_path, path, raw):
           f"bound {meta['resolution_bound']:.2e}, {int(np.count_nonzero(differ))} surface voxels either way)")
 
 
-def main():
-    kind, packing_path, path, *rest = sys.argv[1:]
+def check(kind, packing_path, path, rest):
     if kind == "gmsh":
         check_gmsh(packing_path, path, rest)
     elif kind == "vtk":
@@ -562,7 +565,31 @@ def main():
     elif kind in ("npy", "raw"):
         check_voxels(packing_path, path, kind == "raw")
     else:
-        raise SystemExit(f"unknown kind {kind}")
+        raise ValueError(f"unknown kind {kind}")
+
+
+def batch(checks_path):
+    """Runs every check of the file in this one process (numpy, meshio and vtk are imported
+    once) and returns the names of those that failed."""
+    with open(checks_path) as f:
+        checks = [line.rstrip("\n").split("\t") for line in f if line.strip()]
+    failed = []
+    for name, kind, packing_path, path, *rest in checks:
+        try:
+            check(kind, packing_path, path, rest)
+        except Exception:
+            traceback.print_exc()
+            print(f"FAILED: {name}", file=sys.stderr, flush=True)
+            failed.append(name)
+    print(f"exports: {len(checks) - len(failed)} passed, {len(failed)} failed")
+    return failed
+
+
+def main():
+    if sys.argv[1] == "--batch":
+        sys.exit(1 if batch(sys.argv[2]) else 0)
+    kind, packing_path, path, *rest = sys.argv[1:]
+    check(kind, packing_path, path, rest)
 
 
 if __name__ == "__main__":

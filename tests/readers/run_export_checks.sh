@@ -44,17 +44,15 @@ cargo build --release --quiet   # no-op after `cargo test --release`
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 check=tests/readers/check_exports.py
-passed=0
+checks=$work/checks.tsv
+: >"$checks"
 
-run_check() { # name, command...
-  local name=$1
-  shift
-  if "$@"; then
-    passed=$((passed + 1))
-  else
-    echo "FAILED: $name" >&2
-    exit 1
-  fi
+# queue_check NAME KIND PACKING.json FILE [options]: one reader check. The checks run at the
+# end in one Python process (`check_exports.py --batch`), which imports numpy, meshio and vtk
+# once instead of once per check; it names every check that fails.
+queue_check() {
+  local IFS=$'\t'
+  echo "$*" >>"$checks"
 }
 
 "$bin" run tests/scenes/export_periodic.toml --out "$work/periodic.json" --quiet
@@ -64,56 +62,63 @@ run_check() { # name, command...
 "$bin" run tests/scenes/export_ellipsoids_walls.toml --out "$work/ellipsoids_walls.json" --quiet
 "$bin" run tests/scenes/export_mixture.toml --out "$work/mixture.json" --quiet
 
-mesh() { # packing, name, export options...
-  local packing=$1 name=$2
-  shift 2
+# mesh CHECK-NAME PACKING MESH-NAME [export options]: Gmsh meshes the export in the
+# background (the meshes are independent; `wait` below collects them), and its check is queued.
+meshing=()
+mesh() {
+  local label=$1 packing=$2 name=$3
+  shift 3
   "$bin" export "$work/$packing.json" --format gmsh --out "$work/$name.geo" "$@" >/dev/null
-  gmsh -v 1 -3 -order 2 "$work/$name.geo" -o "$work/$name.msh" >"$work/$name.log" 2>&1 ||
-    { cat "$work/$name.log" >&2; return 1; }
-  "$python" "$check" gmsh "$work/$packing.json" "$work/$name.msh" "$@"
+  (gmsh -v 1 -3 -order 2 "$work/$name.geo" -o "$work/$name.msh" >"$work/$name.log" 2>&1 ||
+    { cat "$work/$name.log" >&2; echo "FAILED: $label (gmsh)" >&2; exit 1; }) &
+  meshing+=("$!")
+  queue_check "$label" gmsh "$work/$packing.json" "$work/$name.msh" "$@"
 }
 
-run_check "gmsh periodic" mesh periodic periodic
-run_check "gmsh periodic with interface shells" mesh periodic periodic_itz --shrink 0.1 --interface 0.05
-run_check "gmsh cylinder" mesh cylinder cylinder
-run_check "gmsh walls, jammed, shrunk" mesh walls walls --shrink 0.05
+mesh "gmsh periodic" periodic periodic
+mesh "gmsh periodic with interface shells" periodic periodic_itz --shrink 0.1 --interface 0.05
+mesh "gmsh cylinder" cylinder cylinder
+mesh "gmsh walls, jammed, shrunk" walls walls --shrink 0.05
 # Ellipsoids (exact volumes 4/3 pi abc) in a walled box. Periodic ellipsoid boxes are not
 # meshed here: Gmsh 4.8 meshes them, with the right volumes, but the second-order nodes it
 # places on the spline curves where an ellipsoid crosses a face differ between opposite faces
 # (up to 0.5 % of the box), so the node-for-node periodicity check fails.
-run_check "gmsh ellipsoids, walls" mesh ellipsoids_walls ellipsoids_walls
+mesh "gmsh ellipsoids, walls" ellipsoids_walls ellipsoids_walls
 # Spheres and cylinders (exact volumes pi r^2 2|l|) in a periodic cube.
-run_check "gmsh sphere + cylinder mixture, periodic" mesh mixture mixture
-run_check "gmsh mixture, a group per particle" mesh mixture mixture_particles --labels particle
-run_check "gmsh cylinder, a group per particle" mesh cylinder cylinder_particles --labels particle
+mesh "gmsh sphere + cylinder mixture, periodic" mixture mixture
+mesh "gmsh mixture, a group per particle" mixture mixture_particles --labels particle
+mesh "gmsh cylinder, a group per particle" cylinder cylinder_particles --labels particle
 
 for packing in periodic cylinder ellipsoids ellipsoids_walls mixture; do
   "$bin" export "$work/$packing.json" --format vtk --out "$work/$packing.vtu" >/dev/null
-  run_check "vtk $packing" "$python" "$check" vtk "$work/$packing.json" "$work/$packing.vtu"
+  queue_check "vtk $packing" vtk "$work/$packing.json" "$work/$packing.vtu"
   if [ "$packing" = periodic ] || [ "$packing" = cylinder ]; then # x,y,z,r: spheres only
     "$bin" export "$work/$packing.json" --format csv --out "$work/$packing.csv" >/dev/null
-    run_check "csv $packing" "$python" "$check" csv "$work/$packing.json" "$work/$packing.csv"
+    queue_check "csv $packing" csv "$work/$packing.json" "$work/$packing.csv"
     "$bin" export "$work/$packing.json" --format xyzd --out "$work/$packing.xyzd" >/dev/null
-    run_check "xyzd $packing" "$python" "$check" xyzd "$work/$packing.json" "$work/$packing.xyzd"
+    queue_check "xyzd $packing" xyzd "$work/$packing.json" "$work/$packing.xyzd"
     "$bin" export "$work/$packing.json" --format lammps --out "$work/$packing.data" >/dev/null
-    run_check "lammps $packing" "$python" "$check" lammps "$work/$packing.json" "$work/$packing.data"
+    queue_check "lammps $packing" lammps "$work/$packing.json" "$work/$packing.data"
   fi
   "$bin" export "$work/$packing.json" --format npy --voxels 48 --out "$work/$packing.npy" >/dev/null
-  run_check "npy $packing" "$python" "$check" npy "$work/$packing.json" "$work/$packing.npy"
+  queue_check "npy $packing" npy "$work/$packing.json" "$work/$packing.npy"
   "$bin" export "$work/$packing.json" --format raw --labels particle --voxels 40 --out "$work/$packing.raw" >/dev/null
-  run_check "raw $packing" "$python" "$check" raw "$work/$packing.json" "$work/$packing.raw"
+  queue_check "raw $packing" raw "$work/$packing.json" "$work/$packing.raw"
   "$bin" export "$work/$packing.json" --format npy --partial-volume 3 --voxels 24 --out "$work/$packing.pv.npy" >/dev/null
-  run_check "partial volume $packing" "$python" "$check" npy "$work/$packing.json" "$work/$packing.pv.npy"
+  queue_check "partial volume $packing" npy "$work/$packing.json" "$work/$packing.pv.npy"
   # vti and abaqus on the grids of the .npy exports above: the same labels.
   "$bin" export "$work/$packing.json" --format vti --voxels 48 --out "$work/$packing.vti" >/dev/null
-  run_check "vti $packing" "$python" "$check" vti "$work/$packing.json" "$work/$packing.vti" "$work/$packing.npy"
+  queue_check "vti $packing" vti "$work/$packing.json" "$work/$packing.vti" "$work/$packing.npy"
   "$bin" export "$work/$packing.json" --format vti --partial-volume 3 --voxels 24 --out "$work/$packing.pv.vti" >/dev/null
-  run_check "vti partial volume $packing" "$python" "$check" vti "$work/$packing.json" "$work/$packing.pv.vti" "$work/$packing.pv.npy"
+  queue_check "vti partial volume $packing" vti "$work/$packing.json" "$work/$packing.pv.vti" "$work/$packing.pv.npy"
   "$bin" export "$work/$packing.json" --format abaqus --voxels 48 --out "$work/$packing.inp" >/dev/null
-  run_check "abaqus $packing" "$python" "$check" abaqus "$work/$packing.json" "$work/$packing.inp" "$work/$packing.npy"
+  queue_check "abaqus $packing" abaqus "$work/$packing.json" "$work/$packing.inp" "$work/$packing.npy"
   "$bin" export "$work/$packing.json" --format npy --labels particle --voxels 24 --out "$work/$packing.p.npy" >/dev/null
   "$bin" export "$work/$packing.json" --format abaqus --labels particle --voxels 24 --out "$work/$packing.p.inp" >/dev/null
-  run_check "abaqus per particle $packing" "$python" "$check" abaqus "$work/$packing.json" "$work/$packing.p.inp" "$work/$packing.p.npy"
+  queue_check "abaqus per particle $packing" abaqus "$work/$packing.json" "$work/$packing.p.inp" "$work/$packing.p.npy"
 done
 
-echo "exports: $passed passed, 0 failed"
+for pid in "${meshing[@]}"; do
+  wait "$pid"   # a failed mesh ends the script (set -e)
+done
+"$python" "$check" --batch "$checks"

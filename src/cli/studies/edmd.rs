@@ -336,7 +336,7 @@ pub fn jamming(ctx: &StudyContext) -> StudyOutput {
         .particles
         .count
         .expect("the jamming scene is monodisperse");
-    let n = if ctx.quick { 1000 } else { full };
+    let n = if ctx.quick { 125 } else { full };
     let mut table = Table::new(
         "jamming: examples/scenes/mono_periodic_jam.toml",
         &format!(
