@@ -1,7 +1,9 @@
 //! Ellipsoid studies (paper 004, Ghossein & Lévesque 2013): the cost and accuracy of the two
 //! collision predictors on random pairs ([`predictor`]), and the paper's Table 2 cases beside
-//! densepack with both predictors ([`table2`]), and the isotropy of the packings against N
-//! (Fig. 6, [`isotropy`]).
+//! densepack with both predictors ([`table2`]), the isotropy of the packings against N
+//! (Fig. 6, [`isotropy`]), and the cost laws of Figs. 7–9: CPU time against N, the volume
+//! fraction and the aspect ratio with fitted exponents beside the paper's
+//! ([`cost_against_n`], [`cost_against_fraction`], [`cost_against_aspect`]).
 //!
 //! Accuracy is judged by the independent check: the Perram–Wertheim contact scale of
 //! [`densepack::verify::contact_scale`] at each predicted contact (< 1 would be an overlap), and
@@ -10,7 +12,7 @@
 //! smallest semi-axis) is swept in [`predictor`]: time per prediction and worst overlap on the
 //! pairs, and a whole jamming run per tolerance (`tolerance_runs`).
 
-use super::{median, spread, Figure, Series, StudyContext, StudyOutput, Table};
+use super::{median, slope, spread, Figure, Series, StudyContext, StudyOutput, Table};
 use densepack::io::scene::Scene;
 use densepack::run::run_scene;
 use densepack::shape::ellipsoid::{predict_ellipsoid_pair, Predictor, Spin, CONTACT_TOLERANCE};
@@ -676,4 +678,392 @@ pub fn isotropy(ctx: &StudyContext) -> StudyOutput {
         csv: table,
         figure,
     }
+}
+
+/// One case of the cost studies (paper 004, Figs. 7–9): `n` prolate spheroids with semi-axes
+/// `a : a/r : a/r` in a periodic cube, grown to fraction `phi` at the relative `rate`.
+///
+/// One protocol for every case, so that cases differ in N, φ and R alone: random sequential
+/// addition at the ellipsoid fraction `start` (at most 0.2/R², bounding spheres at fraction
+/// 0.2 or less, the rule of the shipped Table 2 scenes), then relative growth at `rate` (per
+/// time unit ℓ·√(m/kT)) until `phi`. The cube's edge is set so that the final volume-equivalent diameter is 1 (edge³ =
+/// N·(π/6)/φ), which fixes the length unit, hence the thermal speed against the body size.
+/// The paper starts from zero volume; a relative rate needs a non-zero start (docs/papers.md).
+#[derive(Clone, Copy, Debug)]
+struct CostCase {
+    r: f64,
+    n: usize,
+    phi: f64,
+    rate: f64,
+    start: f64,
+}
+
+impl CostCase {
+    fn scene(&self, seed: u64) -> Result<Scene, String> {
+        let edge = (self.n as f64 * std::f64::consts::PI / 6.0 / self.phi).cbrt();
+        let text = format!(
+            "seed = {seed}\nqueue = \"calendar\"\n\
+             [container]\ntype = \"box\"\nsize = [{edge}, {edge}, {edge}]\n\
+             periodic = [true, true, true]\n\
+             [particles]\ncount = {}\ndiameter = 1.0\npacking_fraction = {}\n\
+             [particles.ellipsoid]\naspect_ratios = [{}, {}]\n\
+             [[stage]]\ngrowth = \"relative\"\nrate = {}\nuntil = {{ packing_fraction = {} }}\n",
+            self.n, self.start, self.r, self.r, self.rate, self.phi
+        );
+        Scene::from_toml(&text).map_err(|e| e.to_string())
+    }
+}
+
+/// `seeds` realisations of a case (seeds 1 … `seeds`): process CPU seconds (every thread, the
+/// seeding and the independent check included, as the paper's t_CPU covers the whole run),
+/// events, and the smallest relative gap the independent check found over all of them.
+struct CostRuns {
+    cpu: Vec<f64>,
+    events: Vec<f64>,
+    min_gap: f64,
+    errors: Vec<String>,
+}
+
+fn cost_runs(case: &CostCase, seeds: u64, label: &str) -> CostRuns {
+    let mut out = CostRuns {
+        cpu: Vec::new(),
+        events: Vec::new(),
+        min_gap: f64::INFINITY,
+        errors: Vec::new(),
+    };
+    for seed in 1..=seeds {
+        let scene = match case.scene(seed) {
+            Ok(s) => s,
+            Err(e) => {
+                out.errors.push(e);
+                return out;
+            }
+        };
+        eprintln!(
+            "-- {label}: R = {}, N = {}, φ = {}, seed {seed}",
+            case.r, case.n, case.phi
+        );
+        let cpu_start = cpu_time::ProcessTime::now();
+        match run_scene(&scene, &mut |_, _| {}) {
+            Ok(o) => {
+                out.cpu.push(cpu_start.elapsed().as_secs_f64());
+                out.events.push(o.packing.stats.events as f64);
+                let gap = o.verification.min_pair_gap_relative.unwrap_or(f64::NAN);
+                out.min_gap = out.min_gap.min(gap);
+            }
+            Err(e) => out.errors.push(e.to_string()),
+        }
+    }
+    out
+}
+
+fn mean_sd(xs: &[f64]) -> (f64, f64) {
+    let n = xs.len() as f64;
+    let mean = xs.iter().sum::<f64>() / n;
+    let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
+    (mean, var.sqrt())
+}
+
+/// A cost law of paper 004: one series of cases per label, the x value each case is plotted
+/// at, and the slope ranges to fit with the paper's exponent for each.
+struct CostLaw {
+    title: &'static str,
+    x_name: &'static str,
+    /// The variable in the paper's law (`N`, `φ`, `R₁`).
+    x_symbol: &'static str,
+    caption: String,
+    series: Vec<(String, Vec<(f64, CostCase)>)>,
+    /// (label, lowest x, highest x, the paper's exponent) of each fitted range.
+    fits: Vec<(&'static str, f64, f64, f64)>,
+    seeds: u64,
+}
+
+/// Runs a cost law: a table of mean CPU seconds per case (± standard deviation over the
+/// seeds), events and µs per event, the fitted log–log slopes of CPU time, events and µs per
+/// event over each range beside the paper's exponent (slope of t = slope of events + slope of
+/// µs per event, which says whether a law comes from the work or from its unit cost), and the
+/// log–log figure with the paper's exponent drawn through each series' first point.
+fn cost_law(law: CostLaw) -> StudyOutput {
+    let mut table = Table::new(
+        law.title,
+        &law.caption,
+        &[
+            "series",
+            law.x_name,
+            "runs",
+            "mean CPU s",
+            "sd",
+            "mean events",
+            "µs per event",
+            "smallest relative gap",
+        ],
+    );
+    let mut fit_table = Table::new(
+        &format!("{}: fitted exponents", law.title),
+        "Least-squares slopes of ln(mean) against ln(x) over each range, beside the paper's \
+         exponent of CPU time. The exponent of time is that of the events plus that of the µs \
+         per event.",
+        &[
+            "series",
+            "range",
+            "points",
+            "CPU time",
+            "events",
+            "µs per event",
+            "paper (CPU time)",
+        ],
+    );
+    let mut figure = Figure::new(law.title, law.x_name, "mean CPU s per run").log(true, true);
+    for (label, cases) in &law.series {
+        let mut points = Vec::new(); // (x, mean cpu, mean events)
+        for (x, case) in cases {
+            let runs = cost_runs(case, law.seeds, label);
+            let lead = vec![label.clone(), format!("{x}")];
+            if runs.cpu.is_empty() {
+                table.failed_row(lead, &runs.errors.join("; "));
+                continue;
+            }
+            let (cpu, sd) = mean_sd(&runs.cpu);
+            let (events, _) = mean_sd(&runs.events);
+            points.push((*x, cpu, events));
+            let runs_cell = if runs.errors.is_empty() {
+                runs.cpu.len().to_string()
+            } else {
+                format!(
+                    "{} ({} failed: {})",
+                    runs.cpu.len(),
+                    runs.errors.len(),
+                    runs.errors.join("; ")
+                )
+            };
+            table.row(
+                [
+                    lead,
+                    vec![
+                        runs_cell,
+                        format!("{cpu:.4}"),
+                        format!("{sd:.4}"),
+                        format!("{events:.0}"),
+                        format!("{:.3}", cpu / events * 1e6),
+                        format!("{:.2e}", runs.min_gap),
+                    ],
+                ]
+                .concat(),
+            );
+        }
+        for &(range, lo, hi, paper) in &law.fits {
+            let inside: Vec<_> = points
+                .iter()
+                .filter(|p| p.0 >= lo && p.0 <= hi)
+                .copied()
+                .collect();
+            let fit = |f: &dyn Fn(&(f64, f64, f64)) -> f64| {
+                let xy: Vec<_> = inside.iter().map(|p| (p.0.ln(), f(p).ln())).collect();
+                slope(&xy).map_or("n/a".into(), |s| format!("{s:.2}"))
+            };
+            fit_table.row(vec![
+                label.clone(),
+                range.into(),
+                inside.len().to_string(),
+                fit(&|p| p.1),
+                fit(&|p| p.2),
+                fit(&|p| p.1 / p.2),
+                format!("{paper}"),
+            ]);
+        }
+        // The paper's exponents, drawn through the first series' points in each range.
+        if std::ptr::eq(label, &law.series[0].0) {
+            for &(range, lo, hi, paper) in &law.fits {
+                let inside: Vec<_> = points.iter().filter(|p| p.0 >= lo && p.0 <= hi).collect();
+                if let (Some(a), Some(b)) = (inside.first(), inside.last()) {
+                    if b.0 > a.0 {
+                        figure = figure.with(Series::line(
+                            format!("paper: ∝ {}^{paper} ({range})", law.x_symbol),
+                            vec![(a.0, a.1), (b.0, a.1 * (b.0 / a.0).powf(paper))],
+                        ));
+                    }
+                }
+            }
+        }
+        figure = figure.with(Series::points(
+            label.clone(),
+            points.iter().map(|p| (p.0, p.1)).collect(),
+        ));
+    }
+    StudyOutput {
+        markdown: format!("{}\n{}", table.markdown(), fit_table.markdown()),
+        csv: table,
+        figure,
+    }
+}
+
+/// Seeds per case: the paper's 10 realisations, 2 in the quick run.
+fn cost_seeds(ctx: &StudyContext) -> u64 {
+    if ctx.quick {
+        2
+    } else {
+        10
+    }
+}
+
+const COST_PROTOCOL: &str = "Prolate spheroids (a : a/R : a/R), periodic cube with edge³ = \
+     N·(π/6)/φ (final volume-equivalent diameter 1), seeded by RSA of the bounding spheres, \
+     relative growth to φ. Mean over the seeds 1 … k of the process CPU seconds of a whole \
+     run (seeding, EDMD and the independent overlap check); smallest relative gap: the \
+     independent check over all runs (negative would be an overlap).";
+
+/// Paper 004, Fig. 7: CPU time against N for five (R, φ) combinations; the paper fits
+/// t ∝ N^1.5 above N = 100.
+pub fn cost_against_n(ctx: &StudyContext) -> StudyOutput {
+    // (R, φ, relative rate): the rate of the shipped Table 2 scene of that R.
+    let combos: &[(f64, f64, f64)] = if ctx.quick {
+        &[(2.0, 0.3, 0.05)]
+    } else {
+        &[
+            (2.0, 0.3, 0.05),
+            (2.0, 0.5, 0.05),
+            (5.0, 0.3, 0.2),
+            (10.0, 0.2, 2.0),
+            (20.0, 0.1, 2.0),
+        ]
+    };
+    let counts: &[usize] = if ctx.quick {
+        &[100, 200]
+    } else {
+        &[100, 200, 400, 800, 1600, 3200]
+    };
+    let seeds = cost_seeds(ctx);
+    cost_law(CostLaw {
+        title: "paper 004, Fig. 7: CPU time against the number of prolate ellipsoids",
+        x_name: "N",
+        x_symbol: "N",
+        caption: format!(
+            "{COST_PROTOCOL} {seeds} seeds per point, seeded at fraction 0.2/R² (bounding \
+             spheres at 0.2). Relative rate per (R, φ): 0.05 for R = 2, 0.2 for R = 5, 2 for \
+             R ≥ 10 (the shipped Table 2 scenes' rates). The paper's five \
+             combinations are not given in its text; these span its Table 2."
+        ),
+        series: combos
+            .iter()
+            .map(|&(r, phi, rate)| {
+                (
+                    format!("R = {r}, φ = {phi}"),
+                    counts
+                        .iter()
+                        .map(|&n| {
+                            let start = 0.2 / (r * r);
+                            (
+                                n as f64,
+                                CostCase {
+                                    r,
+                                    n,
+                                    phi,
+                                    rate,
+                                    start,
+                                },
+                            )
+                        })
+                        .collect(),
+                )
+            })
+            .collect(),
+        fits: vec![("N ≥ 100", 100.0, f64::INFINITY, 1.5)],
+        seeds,
+    })
+}
+
+/// Paper 004, Fig. 8: CPU time against the volume fraction, R₁ = R₂ = 2; the paper fits
+/// t ∝ V_f^2.6 whatever N.
+pub fn cost_against_fraction(ctx: &StudyContext) -> StudyOutput {
+    let fractions: &[f64] = if ctx.quick {
+        &[0.2, 0.4]
+    } else {
+        &[0.1, 0.2, 0.3, 0.4, 0.5, 0.6]
+    };
+    let counts: &[usize] = if ctx.quick { &[100] } else { &[100, 400] };
+    let seeds = cost_seeds(ctx);
+    cost_law(CostLaw {
+        title: "paper 004, Fig. 8: CPU time against the volume fraction, R₁ = R₂ = 2",
+        x_name: "φ",
+        x_symbol: "φ",
+        caption: format!(
+            "{COST_PROTOCOL} {seeds} seeds per point, seeded at fraction 0.05, relative rate \
+             0.05 (the shipped R = 2 scene's). A power law can only describe part of the curve: the cost diverges as φ \
+             approaches jamming (≈ 0.70 for R = 2, Donev et al. 2004)."
+        ),
+        series: counts
+            .iter()
+            .map(|&n| {
+                (
+                    format!("N = {n}"),
+                    fractions
+                        .iter()
+                        .map(|&phi| {
+                            (
+                                phi,
+                                CostCase {
+                                    r: 2.0,
+                                    n,
+                                    phi,
+                                    rate: 0.05,
+                                    start: 0.05,
+                                },
+                            )
+                        })
+                        .collect(),
+                )
+            })
+            .collect(),
+        fits: vec![("all φ", 0.0, 1.0, 2.6)],
+        seeds,
+    })
+}
+
+/// Paper 004, Fig. 9: CPU time against the aspect ratio at V_f = 10 %; the paper fits
+/// t ∝ R₁^0.6 for R₁ ≤ 10 and R₁^2.8 above.
+pub fn cost_against_aspect(ctx: &StudyContext) -> StudyOutput {
+    let ratios: &[f64] = if ctx.quick {
+        &[2.0, 10.0]
+    } else {
+        &[2.0, 3.0, 5.0, 7.0, 10.0, 15.0, 20.0, 30.0, 40.0]
+    };
+    // Bodies shorter than the edge need N > 6R²φ/π (305 at R = 40, φ = 0.1).
+    let n = if ctx.quick { 100 } else { 400 };
+    // Every R starts at the fraction of the longest needles' start, so that all grow by the
+    // same factor, as the paper's bodies all grow from zero volume.
+    let start = 0.2 / ratios.iter().fold(1.0f64, |m, &r| m.max(r)).powi(2);
+    let seeds = cost_seeds(ctx);
+    cost_law(CostLaw {
+        title: "paper 004, Fig. 9: CPU time against the aspect ratio, V_f = 10 %",
+        x_name: "R₁ = R₂",
+        x_symbol: "R₁",
+        caption: format!(
+            "{COST_PROTOCOL} N = {n}, {seeds} seeds per point, every R seeded at fraction \
+             {start:.3e} (the longest needles' bounding spheres at 0.2), so all grow by the same \
+             factor, relative rate 2 (the shipped R ≥ 10 scenes' rate)."
+        ),
+        series: vec![(
+            format!("N = {n}, φ = 0.1"),
+            ratios
+                .iter()
+                .map(|&r| {
+                    (
+                        r,
+                        CostCase {
+                            r,
+                            n,
+                            phi: 0.1,
+                            rate: 2.0,
+                            start,
+                        },
+                    )
+                })
+                .collect(),
+        )],
+        fits: vec![
+            ("R ≤ 10", 0.0, 10.0, 0.6),
+            ("R ≥ 10", 10.0, f64::INFINITY, 2.8),
+        ],
+        seeds,
+    })
 }

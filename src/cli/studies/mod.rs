@@ -16,7 +16,7 @@
 //! The study families, one file each: [`edmd`] (spheres: equilibrium, jamming, log-N scaling,
 //! tuning, growth rate against jammed φ, memory), [`concrete`] (paper 001 §6), [`mixture`]
 //! (sphere + cylinder RVEs, paper 000 Tables II–XI, and the relaxer's step size and force
-//! rescaling), [`ellipsoid`] (paper 004 Table 2, predictor cost and accuracy). Timings are
+//! rescaling), [`ellipsoid`] (paper 004 Table 2, Figs. 6–9, predictor cost and accuracy). Timings are
 //! wall seconds of this process; nothing here asserts a time.
 
 pub mod concrete;
@@ -121,6 +121,24 @@ pub const STUDIES: &[Study] = &[
         summary: "paper 004 Fig. 6: orientation isotropy ρ̄ against N beside independent axes",
         default: true,
         run: ellipsoid::isotropy,
+    },
+    Study {
+        name: "ellipsoid-cost-n",
+        summary: "paper 004 Fig. 7: CPU time of prolate ellipsoids against N, fitted exponents",
+        default: true,
+        run: ellipsoid::cost_against_n,
+    },
+    Study {
+        name: "ellipsoid-cost-fraction",
+        summary: "paper 004 Fig. 8: CPU time against the volume fraction (R = 2), fitted exponent",
+        default: true,
+        run: ellipsoid::cost_against_fraction,
+    },
+    Study {
+        name: "ellipsoid-cost-aspect",
+        summary: "paper 004 Fig. 9: CPU time against the aspect ratio (φ = 0.1), fitted exponents",
+        default: true,
+        run: ellipsoid::cost_against_aspect,
     },
     Study {
         name: "relaxer",
