@@ -27,11 +27,16 @@ python=$PWD/$venv/bin/python
 "$python" -m pip install --quiet --upgrade pip
 echo "pip install ./python[test] (builds the extension with maturin)"
 "$python" -m pip install --quiet "./python[test]" mypy
-cargo build --release --quiet   # the CLI the tests compare with (no-op after cargo test)
+# The CLI the tests compare with: $DENSEPACK_BIN (.ci/run passes the one `cargo test
+# --release` built), else this checkout's release build.
+if [ -z "${DENSEPACK_BIN:-}" ]; then
+  cargo build --release --quiet
+  DENSEPACK_BIN=$PWD/target/release/densepack
+fi
 
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 cd "$work"   # outside the tree: `import densepack` is the installed package
 "$python" -m mypy.stubtest densepack._densepack
-DENSEPACK_CLI="$OLDPWD/target/release/densepack" \
+DENSEPACK_CLI="$DENSEPACK_BIN" \
   "$python" -m pytest -q -p no:cacheprovider "$OLDPWD/python/tests"

@@ -39,8 +39,14 @@ if ! "$python" -c "import numpy, meshio, vtk" >/dev/null 2>&1; then
   "$python" -m pip install --quiet numpy meshio vtk
 fi
 
-bin=target/release/densepack
-cargo build --release --quiet   # no-op after `cargo test --release`
+# The binary: $DENSEPACK_BIN (.ci/run passes the one `cargo test --release` built), else this
+# checkout's release build.
+if [ -n "${DENSEPACK_BIN:-}" ]; then
+  bin=$DENSEPACK_BIN
+else
+  cargo build --release --quiet
+  bin=target/release/densepack
+fi
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 check=tests/readers/check_exports.py
