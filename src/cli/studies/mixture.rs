@@ -1,7 +1,9 @@
 //! Sphere + cylinder RVEs (Salnikov, Choï & Karamian-Surville 2014, paper 000): the paper's
 //! Tables II–VI (RSA) and VII–XI (MD relaxer) beside densepack's times ([`tables`],
-//! [`paper_tables`]), and the relaxer's time step and force rescaling against time and
-//! residual overlap ([`relaxer`]).
+//! [`paper_tables`]), the relaxer's time step and force rescaling against time and
+//! residual overlap ([`relaxer`]), and the timing figures: RSA placement orders (Fig. 4,
+//! [`order`]), the sphere share of a fixed total (Figs. 7–8, [`split`]) and the total
+//! fraction for each composition (Figs. 9–11, [`fraction`]).
 //!
 //! Every packing counted as a success is accepted by the independent check
 //! ([`densepack::verify::verify`]: GJK separating-plane certificates over all periodic images).
@@ -72,10 +74,12 @@ pub struct Generated {
 const SHORT_RUN: f64 = 1e-3;
 
 /// One generation by `method` (`"rsa"` or `"md"`) with seed `seed`, limited to `limit`
-/// wall seconds; `settings` tunes the relaxer (ignored by RSA).
+/// wall seconds; `order` is the RSA placement order (the relaxer's random start uses it too),
+/// `settings` tune the relaxer (ignored by RSA).
 pub fn generate(
     method: &str,
     spec: &MixtureSpec,
+    order: GenerationOrder,
     seed: u64,
     limit: f64,
     settings: &RelaxSettings,
@@ -83,7 +87,7 @@ pub fn generate(
     spec.validate().map_err(|_| GenerationFailure::Bound)?;
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
     let boundary = spec.boundary();
-    let sizes = spec.sizes(GenerationOrder::CylindersFirst);
+    let sizes = spec.sizes(order);
     // The paper's protocol for RSA: relaunch until the time limit. A start is abandoned
     // when a body is proven jammed (no free centre) or after 10⁶ uniform draws of one body.
     let limits = RsaLimits {
@@ -322,7 +326,14 @@ fn run_table(
                     + 10_007 * (ri * 16 + ci) as u64
                     + 101 * ai as u64
                     + run as u64;
-                match generate(method, &spec, seed, config.limit, &RelaxSettings::default()) {
+                match generate(
+                    method,
+                    &spec,
+                    GenerationOrder::CylindersFirst,
+                    seed,
+                    config.limit,
+                    &RelaxSettings::default(),
+                ) {
                     Ok(g) => times.push(if config.cpu { g.cpu_seconds } else { g.seconds }),
                     Err(GenerationFailure::Bound) => {
                         bound = true;
@@ -493,7 +504,14 @@ pub fn relaxer(ctx: &StudyContext) -> StudyOutput {
         let mut gap = f64::INFINITY;
         let mut rejected = Vec::new();
         for seed in 1..=seeds {
-            match generate("md", &spec, seed, limit, &s) {
+            match generate(
+                "md",
+                &spec,
+                GenerationOrder::CylindersFirst,
+                seed,
+                limit,
+                &s,
+            ) {
                 Ok(g) => {
                     times.push(g.seconds);
                     gap = gap.min(g.min_gap.unwrap_or(f64::INFINITY));
@@ -575,4 +593,326 @@ pub fn relaxer(ctx: &StudyContext) -> StudyOutput {
         csv: table,
         figure,
     }
+}
+
+/// `ns` spheres and `nc` cylinders of aspect ratio `a` at fractions `fs`, `fc` in the periodic
+/// unit cube; a kind with fraction 0 has no bodies.
+fn unit_cube_mix(ns: usize, nc: usize, a: f64, fs: f64, fc: f64) -> MixtureSpec {
+    MixtureSpec {
+        sphere_fraction: fs,
+        cylinder_fraction: fc,
+        spheres: if fs > 0.0 { ns } else { 0 },
+        cylinders: if fc > 0.0 { nc } else { 0 },
+        aspect_ratio: a,
+        box_size: 1.0,
+    }
+}
+
+/// `k·step` for `k = from/step … to/step`, rounded to 10⁻⁹ (fractions printed as typed).
+fn steps(from: f64, to: f64, step: f64) -> Vec<f64> {
+    let (lo, hi) = ((from / step).round() as i64, (to / step).round() as i64);
+    (lo..=hi)
+        .map(|k| (k as f64 * step * 1e9).round() / 1e9)
+        .collect()
+}
+
+/// One curve of paper 000's timing figures: a method and placement order, and the RVE at each
+/// abscissa.
+struct Curve {
+    label: String,
+    method: &'static str,
+    order: GenerationOrder,
+    points: Vec<(f64, MixtureSpec)>,
+    /// The abscissae are rising total fractions: stop after the first point where no run gave
+    /// a packing (a harder point would only spend `runs × limit`).
+    stop_at_failure: bool,
+}
+
+/// A timing figure of paper 000: its curves, the runs per point and the wall-second limit per
+/// run of each method.
+struct TimingFigure {
+    title: &'static str,
+    caption: String,
+    x_name: &'static str,
+    curves: Vec<Curve>,
+    runs: u64,
+    rsa_limit: f64,
+    md_limit: f64,
+}
+
+/// Runs a timing figure: per point the runs that gave a packing the independent check
+/// accepts and their mean CPU seconds (seeds shared by all curves at a point, so curves are
+/// compared on the same draws), per curve the largest abscissa where every run, and where half
+/// the runs, gave a packing; a log-y figure of the mean CPU seconds.
+fn timing_figure(study: TimingFigure) -> StudyOutput {
+    let mut table = Table::new(
+        study.title,
+        &study.caption,
+        &[
+            "curve",
+            study.x_name,
+            "f_s",
+            "f_c",
+            "runs",
+            "packings",
+            "mean CPU s",
+            "median CPU s",
+            "gap bound",
+        ],
+    );
+    let mut summary = Table::new(
+        &format!("{}: reach", study.title),
+        "Largest abscissa at which every run, and at least half the runs, gave a packing; mean \
+         CPU seconds at the first point of each curve.",
+        &[
+            "curve",
+            "all runs packed up to",
+            "half the runs up to",
+            "mean CPU s at the first point",
+        ],
+    );
+    let mut figure =
+        Figure::new(study.title, study.x_name, "mean CPU s per packing").log(false, true);
+    for curve in &study.curves {
+        let limit = if curve.method == "rsa" {
+            study.rsa_limit
+        } else {
+            study.md_limit
+        };
+        let (mut all_up_to, mut half_up_to, mut first) = (None, None, None);
+        let mut points = Vec::new();
+        for (index, (x, spec)) in curve.points.iter().enumerate() {
+            let mut times = Vec::new();
+            let mut gap = f64::INFINITY;
+            let mut problems = Vec::new();
+            for run in 0..study.runs {
+                let seed = 7_000_000 + 10_000 * index as u64 + run;
+                match generate(
+                    curve.method,
+                    spec,
+                    curve.order,
+                    seed,
+                    limit,
+                    &RelaxSettings::default(),
+                ) {
+                    Ok(g) => {
+                        times.push(g.cpu_seconds);
+                        gap = gap.min(g.min_gap.unwrap_or(f64::INFINITY));
+                    }
+                    Err(GenerationFailure::GaveUp { .. }) => {}
+                    Err(GenerationFailure::Bound) => problems.push("bound".to_string()),
+                    Err(GenerationFailure::Rejected(e)) => problems.push(format!("rejected: {e}")),
+                }
+            }
+            eprintln!(
+                "-- {}: {} = {x}: {}/{} packed",
+                curve.label,
+                study.x_name,
+                times.len(),
+                study.runs
+            );
+            let packed = times.len() as u64;
+            let mean = (packed > 0).then(|| times.iter().sum::<f64>() / packed as f64);
+            if packed == study.runs {
+                all_up_to = Some(*x);
+            }
+            if 2 * packed >= study.runs {
+                half_up_to = Some(*x);
+            }
+            if index == 0 {
+                first = mean;
+            }
+            if let Some(m) = mean {
+                points.push((*x, m));
+            }
+            table.row(vec![
+                curve.label.clone(),
+                format!("{x}"),
+                format!("{}", spec.sphere_fraction),
+                format!("{}", spec.cylinder_fraction),
+                study.runs.to_string(),
+                if problems.is_empty() {
+                    packed.to_string()
+                } else {
+                    format!("{packed} ({})", problems.join("; "))
+                },
+                mean.map_or("–".into(), |m| format!("{m:.3e}")),
+                if packed > 0 {
+                    format!("{:.3e}", median(times))
+                } else {
+                    "–".into()
+                },
+                if gap.is_finite() {
+                    format!("{gap:.2e}")
+                } else {
+                    "–".into()
+                },
+            ]);
+            if packed == 0 && curve.stop_at_failure {
+                break;
+            }
+        }
+        let up_to = |v: Option<f64>| v.map_or("–".into(), |x| format!("{x}"));
+        summary.row(vec![
+            curve.label.clone(),
+            up_to(all_up_to),
+            up_to(half_up_to),
+            first.map_or("–".into(), |m| format!("{m:.3e}")),
+        ]);
+        figure = figure.with(Series::points(curve.label.clone(), points));
+    }
+    StudyOutput {
+        markdown: format!("{}\n{}", summary.markdown(), table.markdown()),
+        csv: table,
+        figure,
+    }
+}
+
+/// Runs per point and wall-second limits (RSA, MD) of the timing figures: the paper's 20 runs.
+fn figure_budget(ctx: &StudyContext) -> (u64, f64, f64) {
+    if ctx.quick {
+        (2, 0.5, 1.0)
+    } else {
+        (20, 1.0, 3.0)
+    }
+}
+
+const FIGURE_PROTOCOL: &str = "Periodic unit cube, 30 spheres and 30 cylinders of aspect ratio \
+    a = 5 (a kind with no volume has no bodies), as in the paper's Fig. 4 (its Figs. 7–11 do \
+    not state the counts). A run that gives up (RSA: a body rejected 10⁶ times, restarts until \
+    the limit; MD: the relaxer's limit) is not a packing; every packing counted passed the \
+    independent check; gap bound: the check's lower bound of the smallest surface gap (from \
+    its separating planes; a negative bound, within its tolerance of 10⁻⁹ of the radii, is a \
+    pair it cannot tell from touching, which the paper allows). Mean CPU seconds of the \
+    generating thread over the packings (an RSA run under 1 ms: the mean of repeats of its \
+    seed); the same seeds for every curve at a point.";
+
+/// Paper 000, Fig. 4: RSA time against the total fraction (split equally) for the three
+/// placement orders. The paper: cylinders first is faster at low fractions, spheres first
+/// reaches higher ones.
+pub fn order(ctx: &StudyContext) -> StudyOutput {
+    let (runs, rsa_limit, md_limit) = figure_budget(ctx);
+    let totals = if ctx.quick {
+        vec![0.1, 0.3]
+    } else {
+        steps(0.02, 0.6, 0.02)
+    };
+    let orders = [
+        ("cylinders first", GenerationOrder::CylindersFirst),
+        ("spheres first", GenerationOrder::SpheresFirst),
+        ("interleaved", GenerationOrder::Interleaved),
+    ];
+    timing_figure(TimingFigure {
+        title: "paper 000, Fig. 4: RSA time against the fraction, by placement order",
+        caption: format!(
+            "{FIGURE_PROTOCOL} f_s = f_c = φ/2; {runs} runs per point, {rsa_limit} s per run; a \
+             curve stops after its first point without a packing."
+        ),
+        x_name: "total fraction φ",
+        curves: orders
+            .iter()
+            .map(|&(label, order)| Curve {
+                label: label.into(),
+                method: "rsa",
+                order,
+                points: totals
+                    .iter()
+                    .map(|&t| (t, unit_cube_mix(30, 30, 5.0, t / 2.0, t / 2.0)))
+                    .collect(),
+                stop_at_failure: true,
+            })
+            .collect(),
+        runs,
+        rsa_limit,
+        md_limit,
+    })
+}
+
+/// Paper 000, Figs. 7–8: time against the sphere share of a fixed total, RSA at 0.3 and the
+/// relaxer (MD) at 0.5. The paper: cylinders are the harder kind for MD, and for RSA at a high
+/// cylinder share.
+pub fn split(ctx: &StudyContext) -> StudyOutput {
+    let (runs, rsa_limit, md_limit) = figure_budget(ctx);
+    let curve = |method: &'static str, total: f64, step: f64| {
+        let shares = if ctx.quick {
+            vec![0.0, total / 2.0]
+        } else {
+            steps(0.0, total, step)
+        };
+        Curve {
+            label: format!("{} at φ = {total}", method.to_uppercase()),
+            method,
+            order: GenerationOrder::CylindersFirst,
+            points: shares
+                .iter()
+                .map(|&fs| {
+                    let fc = ((total - fs) * 1e9).round() / 1e9;
+                    (fs, unit_cube_mix(30, 30, 5.0, fs, fc))
+                })
+                .collect(),
+            stop_at_failure: false,
+        }
+    };
+    timing_figure(TimingFigure {
+        title: "paper 000, Figs. 7–8: time against the sphere share of a fixed total",
+        caption: format!(
+            "{FIGURE_PROTOCOL} RSA (cylinders first) at f_s + f_c = 0.3, the relaxer at 0.5; \
+             f_s in steps of 0.025 and 0.05 (the paper: 0.01); {runs} runs per point, {rsa_limit} \
+             s (RSA) and {md_limit} s (MD) per run."
+        ),
+        x_name: "sphere fraction f_s",
+        curves: vec![curve("rsa", 0.3, 0.025), curve("md", 0.5, 0.05)],
+        runs,
+        rsa_limit,
+        md_limit,
+    })
+}
+
+/// Paper 000, Figs. 9–11: time against the total fraction for cylinders only, both kinds
+/// (equal shares) and spheres only, RSA and MD. The paper: RSA is faster at low fractions,
+/// MD reaches the higher ones.
+pub fn fraction(ctx: &StudyContext) -> StudyOutput {
+    let (runs, rsa_limit, md_limit) = figure_budget(ctx);
+    let totals = if ctx.quick {
+        vec![0.1, 0.2]
+    } else {
+        steps(0.05, 0.6, 0.05)
+    };
+    // (composition, the spheres' share of the total)
+    let kinds = [
+        ("cylinders only (Fig. 9)", 0.0),
+        ("both, equal shares (Fig. 10)", 0.5),
+        ("spheres only (Fig. 11)", 1.0),
+    ];
+    let mut curves = Vec::new();
+    for (kind, sphere_share) in kinds {
+        for method in ["rsa", "md"] {
+            curves.push(Curve {
+                label: format!("{}, {kind}", method.to_uppercase()),
+                method,
+                order: GenerationOrder::CylindersFirst,
+                points: totals
+                    .iter()
+                    .map(|&t| {
+                        let fs = sphere_share * t;
+                        (t, unit_cube_mix(30, 30, 5.0, fs, t - fs))
+                    })
+                    .collect(),
+                stop_at_failure: true,
+            });
+        }
+    }
+    timing_figure(TimingFigure {
+        title: "paper 000, Figs. 9–11: time against the total fraction, RSA and MD",
+        caption: format!(
+            "{FIGURE_PROTOCOL} φ in steps of 0.05 (the paper: 0.01); {runs} runs per point, \
+             {rsa_limit} s (RSA, cylinders first) and {md_limit} s (MD) per run; a curve stops \
+             after its first point without a packing."
+        ),
+        x_name: "total fraction φ",
+        curves,
+        runs,
+        rsa_limit,
+        md_limit,
+    })
 }

@@ -153,6 +153,25 @@ pub const STUDIES: &[Study] = &[
         run: mixture::tables,
     },
     Study {
+        name: "mixture-order",
+        summary: "paper 000 Fig. 4: RSA time against the fraction for the three placement orders",
+        default: true,
+        run: mixture::order,
+    },
+    Study {
+        name: "mixture-split",
+        summary: "paper 000 Figs. 7–8: RSA and MD time against the sphere share of a fixed total",
+        default: true,
+        run: mixture::split,
+    },
+    Study {
+        name: "mixture-fraction",
+        summary:
+            "paper 000 Figs. 9–11: RSA and MD time against the total fraction, per composition",
+        default: true,
+        run: mixture::fraction,
+    },
+    Study {
         name: "concrete-jam",
         summary: "concrete jamming speed, 80 mm walled cube (paper 001 §6)",
         default: true,
