@@ -3,11 +3,12 @@ walled (the paper's set-up) and periodic, against N, over seeds.
 
     pip install "./python[dask]" matplotlib
     python benches/scripts/jamming_vs_n.py --out fig5 [--seeds 3] [--max-n 1000]
+    python benches/scripts/jamming_vs_n.py --out fig5-large --protocols fixed --max-n 100000
 
 Each point is an ensemble (`densepack.ensemble`, one realisation per seed on a Dask
 LocalCluster, or on --scheduler) of the scene: N spheres seeded by RSA at φ = 0.3 as in the
-paper (0.1 below N = 125: two spheres jam at 0.267, and RSA cannot place a few large spheres
-at 0.3), then grown until the reduced pressure reaches 10¹², with one of two protocols —
+paper (0.1 below N = 216: two spheres jam at 0.267, and RSA cannot place a few large spheres
+at 0.3; at N = 125 in the walled cube one seed in three gets stuck), then grown until the reduced pressure reaches 10¹², with one of two protocols —
 
 - `fixed`: one relative growth rate, 0.05 (the default scene's; the paper grows "with the
   same growth rate until the simulation aborts");
@@ -35,7 +36,7 @@ import densepack
 REPO = pathlib.Path(__file__).resolve().parents[2]
 SLOW = REPO / "examples" / "scenes" / "mono_periodic_jam_slow.toml"
 EDGE = 10.0
-COUNTS = [1, 2, 3, 4, 8, 16, 27, 64, 125, 216, 512, 1000, 4096, 10_000]
+COUNTS = [1, 2, 3, 4, 8, 16, 27, 64, 125, 216, 512, 1000, 4096, 10_000, 100_000]
 
 EXACT_WALLED = {
     1: math.pi / 6,
@@ -50,7 +51,7 @@ def scene(protocol: str, periodic: bool, n: int) -> densepack.Scene:
     table["container"]["size"] = [EDGE] * 3
     table["container"]["periodic"] = [periodic] * 3
     table["particles"]["count"] = n
-    table["particles"]["packing_fraction"] = 0.3 if n >= 125 else 0.1
+    table["particles"]["packing_fraction"] = 0.3 if n >= 216 else 0.1
     if protocol == "fixed":
         table["stage"] = [
             {
@@ -67,9 +68,19 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=pathlib.Path, required=True)
     parser.add_argument("--seeds", type=int, default=3, help="seeds 1..S per point")
-    parser.add_argument("--max-n", type=int, default=1000, help="largest N (≤ 10 000)")
+    parser.add_argument("--max-n", type=int, default=1000, help="largest N (≤ 100 000)")
+    parser.add_argument(
+        "--protocols",
+        default="fixed,slow",
+        help="comma-separated: fixed, slow (the slow finish takes about 10 min at N = 10⁴)",
+    )
     parser.add_argument("--scheduler", help="address of a running Dask scheduler")
     args = parser.parse_args()
+    protocols = args.protocols.split(",")
+    if not protocols or any(p not in ("fixed", "slow") for p in protocols):
+        parser.error(f"--protocols: {args.protocols!r}; allowed: fixed, slow, comma-separated")
+    if not 1 <= args.max_n <= COUNTS[-1]:
+        parser.error(f"--max-n: {args.max_n} is outside [1, {COUNTS[-1]}]")
 
     from dask.distributed import Client, LocalCluster
 
@@ -81,7 +92,7 @@ def main() -> None:
         client = Client(cluster)
     results = []
     try:
-        for protocol in ["fixed", "slow"]:
+        for protocol in protocols:
             for boundary in ["walled", "periodic"]:
                 for n in [c for c in COUNTS if c <= args.max_n]:
                     try:
@@ -140,6 +151,8 @@ def main() -> None:
     for protocol, marker in [("fixed", "o"), ("slow", "s")]:
         for boundary, colour in [("walled", "C0"), ("periodic", "C1")]:
             rs = [r for r in results if r["protocol"] == protocol and r["boundary"] == boundary]
+            if not rs:
+                continue
             ax.errorbar(
                 [r["n"] for r in rs],
                 [r["phi_mean"] for r in rs],
