@@ -45,7 +45,6 @@ def test_jamming_against_n_smallest_rows_meet_the_exact_values(tmp_path, dask_cl
         n = int(r["n"])
         assert int(r["seeds_ok"]) == 1, r
         if r["boundary"] == "walled" and n in exact:
-            assert float(r["phi_exact"]) == pytest.approx(exact[n], rel=1e-15)
             assert abs(float(r["phi_mean"]) - exact[n]) < 1e-6, r
             checked += 1
     # Both protocols, N = 1, 2 and 8.

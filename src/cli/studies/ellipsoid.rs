@@ -12,7 +12,7 @@
 //! smallest semi-axis) is swept in [`predictor`]: time per prediction and worst overlap on the
 //! pairs, and a whole jamming run per tolerance (`tolerance_runs`).
 
-use super::{median, slope, spread, Figure, Series, StudyContext, StudyOutput, Table};
+use super::{mean_sd, median, slope, spread, Figure, Series, StudyContext, StudyOutput, Table};
 use densepack::io::scene::Scene;
 use densepack::run::run_scene;
 use densepack::shape::ellipsoid::{predict_ellipsoid_pair, Predictor, Spin, CONTACT_TOLERANCE};
@@ -630,10 +630,8 @@ pub fn isotropy(ctx: &StudyContext) -> StudyOutput {
                 table.failed_row(lead, &errors.join("; "));
                 continue;
             }
-            let m = ratios.len() as f64;
-            let mean = ratios.iter().sum::<f64>() / m;
-            let sd = (ratios.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / (m - 1.0)).sqrt();
-            let half = t95 * sd / m.sqrt();
+            let (mean, sd) = mean_sd(&ratios);
+            let half = t95 * sd / (ratios.len() as f64).sqrt();
             let ideal = isotropic_reference(n, 10_000, 6 + n as u64);
             points.push((n as f64, mean));
             reference.push((n as f64, ideal));
@@ -757,13 +755,6 @@ fn cost_runs(case: &CostCase, seeds: u64, label: &str) -> CostRuns {
     out
 }
 
-fn mean_sd(xs: &[f64]) -> (f64, f64) {
-    let n = xs.len() as f64;
-    let mean = xs.iter().sum::<f64>() / n;
-    let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
-    (mean, var.sqrt())
-}
-
 /// A cost law of paper 004: one series of cases per label, the x value each case is plotted
 /// at, and the slope ranges to fit with the paper's exponent for each.
 struct CostLaw {
@@ -870,18 +861,14 @@ fn cost_law(law: CostLaw) -> StudyOutput {
                 fit(&|p| p.1 / p.2),
                 format!("{paper}"),
             ]);
-        }
-        // The paper's exponents, drawn through the first series' points in each range.
-        if std::ptr::eq(label, &law.series[0].0) {
-            for &(range, lo, hi, paper) in &law.fits {
-                let inside: Vec<_> = points.iter().filter(|p| p.0 >= lo && p.0 <= hi).collect();
-                if let (Some(a), Some(b)) = (inside.first(), inside.last()) {
-                    if b.0 > a.0 {
-                        figure = figure.with(Series::line(
-                            format!("paper: ∝ {}^{paper} ({range})", law.x_symbol),
-                            vec![(a.0, a.1), (b.0, a.1 * (b.0 / a.0).powf(paper))],
-                        ));
-                    }
+            // The paper's exponent, drawn through the first series' points in the range.
+            let first_series = std::ptr::eq(label, &law.series[0].0);
+            if let (true, Some(a), Some(b)) = (first_series, inside.first(), inside.last()) {
+                if b.0 > a.0 {
+                    figure = figure.with(Series::line(
+                        format!("paper: ∝ {}^{paper} ({range})", law.x_symbol),
+                        vec![(a.0, a.1), (b.0, a.1 * (b.0 / a.0).powf(paper))],
+                    ));
                 }
             }
         }

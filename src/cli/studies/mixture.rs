@@ -146,19 +146,6 @@ pub fn generate(
     })
 }
 
-/// The paper's RVE: `n` spheres and `n` cylinders of aspect ratio `a` at fractions `fs`,
-/// `fc` in the periodic unit cube.
-fn unit_cube(n: usize, a: f64, fs: f64, fc: f64) -> MixtureSpec {
-    MixtureSpec {
-        sphere_fraction: fs,
-        cylinder_fraction: fc,
-        spheres: n,
-        cylinders: n,
-        aspect_ratio: a,
-        box_size: 1.0,
-    }
-}
-
 /// Which cells of the paper's tables [`paper_tables`] runs.
 #[derive(Clone, Debug)]
 pub struct TablesConfig {
@@ -317,7 +304,7 @@ fn run_table(
             }
             any = true;
             cells += 1;
-            let spec = unit_cube(n, a, fs, fc);
+            let spec = unit_cube(n, n, a, fs, fc);
             let mut times = Vec::new();
             let mut failed = 0;
             let mut bound = false;
@@ -449,7 +436,7 @@ pub fn relaxer(ctx: &StudyContext) -> StudyOutput {
     } else {
         (30, 5.0, 0.15, 0.30, 8, 10.0)
     };
-    let spec = unit_cube(n, a, fs, fc);
+    let spec = unit_cube(n, n, a, fs, fc);
     let defaults = RelaxSettings::default();
     let mut table = Table::new(
         "relaxer: time step and force rescaling",
@@ -595,9 +582,9 @@ pub fn relaxer(ctx: &StudyContext) -> StudyOutput {
     }
 }
 
-/// `ns` spheres and `nc` cylinders of aspect ratio `a` at fractions `fs`, `fc` in the periodic
-/// unit cube; a kind with fraction 0 has no bodies.
-fn unit_cube_mix(ns: usize, nc: usize, a: f64, fs: f64, fc: f64) -> MixtureSpec {
+/// The paper's RVE: `ns` spheres and `nc` cylinders of aspect ratio `a` at fractions `fs`, `fc`
+/// in the periodic unit cube; a kind with fraction 0 has no bodies.
+fn unit_cube(ns: usize, nc: usize, a: f64, fs: f64, fc: f64) -> MixtureSpec {
     MixtureSpec {
         sphere_fraction: fs,
         cylinder_fraction: fc,
@@ -817,7 +804,7 @@ pub fn order(ctx: &StudyContext) -> StudyOutput {
                 order,
                 points: totals
                     .iter()
-                    .map(|&t| (t, unit_cube_mix(30, 30, 5.0, t / 2.0, t / 2.0)))
+                    .map(|&t| (t, unit_cube(30, 30, 5.0, t / 2.0, t / 2.0)))
                     .collect(),
                 stop_at_failure: true,
             })
@@ -847,7 +834,7 @@ pub fn split(ctx: &StudyContext) -> StudyOutput {
                 .iter()
                 .map(|&fs| {
                     let fc = ((total - fs) * 1e9).round() / 1e9;
-                    (fs, unit_cube_mix(30, 30, 5.0, fs, fc))
+                    (fs, unit_cube(30, 30, 5.0, fs, fc))
                 })
                 .collect(),
             stop_at_failure: false,
@@ -895,7 +882,7 @@ pub fn fraction(ctx: &StudyContext) -> StudyOutput {
                     .iter()
                     .map(|&t| {
                         let fs = sphere_share * t;
-                        (t, unit_cube_mix(30, 30, 5.0, fs, t - fs))
+                        (t, unit_cube(30, 30, 5.0, fs, t - fs))
                     })
                     .collect(),
                 stop_at_failure: true,

@@ -27,7 +27,7 @@ mod plot;
 mod table;
 
 pub use plot::{Figure, Series};
-pub use table::{median, si, slope, spread, Table};
+pub use table::{mean_sd, median, si, slope, spread, Table};
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

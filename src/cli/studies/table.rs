@@ -115,6 +115,14 @@ pub fn spread(xs: &[f64]) -> f64 {
     (hi - lo) / median(xs.to_vec())
 }
 
+/// Mean and sample standard deviation (divisor n − 1; 0 for one value; NaN when empty).
+pub fn mean_sd(xs: &[f64]) -> (f64, f64) {
+    let n = xs.len() as f64;
+    let mean = xs.iter().sum::<f64>() / n;
+    let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
+    (mean, var.sqrt())
+}
+
 /// Least-squares slope of `y` against `x`, if at least two distinct `x`.
 pub fn slope(points: &[(f64, f64)]) -> Option<f64> {
     let n = points.len() as f64;
@@ -128,6 +136,16 @@ pub fn slope(points: &[(f64, f64)]) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn mean_and_sample_deviation_of_known_samples() {
+        // 2, 4, 4, 4, 5, 5, 7, 9: mean 5, squared deviations 32, sample variance 32/7.
+        let (m, sd) = mean_sd(&[2.0, 4.0, 4.0, 4.0, 5.0, 5.0, 7.0, 9.0]);
+        assert_eq!(m, 5.0);
+        assert!((sd - (32.0f64 / 7.0).sqrt()).abs() < 1e-15);
+        assert_eq!(mean_sd(&[3.0]), (3.0, 0.0));
+        assert!(mean_sd(&[]).0.is_nan());
+    }
 
     #[test]
     fn slope_of_an_exact_line_and_of_too_few_points() {
