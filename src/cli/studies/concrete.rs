@@ -8,14 +8,17 @@
 //!   32 mm cube at two φ_eff, two seeds (seconds); full: 32 mm at 0.55–0.70 (10 seeds) and
 //!   80 mm at 0.60–0.70 (5 seeds) in steps of 0.025, about 20 CPU minutes.
 //! * [`gap`] (Fig. 9) — A16, 80 mm walled cube, d_min = 2 mm, Δd = 1 mm
-//!   (`a16_80mm_gap1.toml`): success rate, time and events per run against φ_M.
+//!   (`a16_80mm_gap1.toml`): success rate and time per success against φ_M for RSA of the
+//!   coated grains and EDMD, 0.5 % steps, 25 seeds (quick: one φ_M each, one seed).
 //! * [`gapmax`] (Fig. 10–11) — Δd maximisation (`b16_150mm_gapmax.toml`): A16 and B16 at
-//!   φ_M = 60 % and 70 %, d_min = 2 mm; 150 mm cube (quick: 80 mm).
+//!   φ_M = 60 % and 70 %, d_min = 4 and 2 mm, the gap kept to the walls or not, three
+//!   seeds each; 150 mm cube (quick: 80 mm, d_min = 4 mm, one seed). [`gapmax_fine`]: the
+//!   same at d_min = 1 mm (about 3·10⁵ grains per run, hours).
 //! * [`jam`] — jamming speed: A16 (φ_M = 0.535) and Fuller q = 0.5 (φ_eff = 0.60) in
 //!   the 80 mm walled cube, RSA at true size, grown (relative rate 0.05) to reduced pressure
 //!   10¹²: events/s, and the smallest gaps to pairs and walls by the independent check.
 
-use super::{Figure, Series, StudyContext, StudyOutput, Table};
+use super::{mean_sd, Figure, Series, StudyContext, StudyOutput, Table};
 use densepack::io::scene::Scene;
 use densepack::run::run_scene;
 use std::time::Instant;
@@ -43,10 +46,9 @@ fn set(scene: &str, key: &str, value: &str) -> String {
         + "\n"
 }
 
-/// Outcome of one run: success, wall and CPU seconds, events, the packing's min_gap.
+/// Outcome of one run: success, CPU seconds, events, the packing's min_gap.
 struct Run {
     ok: bool,
-    seconds: f64,
     /// CPU seconds of this thread (the machine may be shared).
     cpu_seconds: f64,
     events: u64,
@@ -56,14 +58,12 @@ struct Run {
 
 fn run(text: &str) -> Run {
     let scene = Scene::from_toml(text).unwrap_or_else(|e| panic!("bench scene: {e}\n{text}"));
-    let t = Instant::now();
     let cpu = cpu_time::ThreadTime::now();
     let outcome = run_scene(&scene, &mut |_, _| {});
-    let (seconds, cpu_seconds) = (t.elapsed().as_secs_f64(), cpu.elapsed().as_secs_f64());
+    let cpu_seconds = cpu.elapsed().as_secs_f64();
     match outcome {
         Ok(o) => Run {
             ok: true,
-            seconds,
             cpu_seconds,
             events: o.packing.stats.events,
             min_gap: o.packing.min_gap,
@@ -71,7 +71,6 @@ fn run(text: &str) -> Run {
         },
         Err(e) => Run {
             ok: false,
-            seconds,
             cpu_seconds,
             events: 0,
             min_gap: f64::NAN,
@@ -260,7 +259,7 @@ fn failure_kind(message: &str) -> &'static str {
     })
 }
 
-/// The Fuller scene as RSA alone at true size with rejection limit `limit`.
+/// A concrete scene as RSA alone at true size with rejection limit `limit`.
 fn rsa_variant(scene: &str, limit: u64) -> String {
     let head = scene.split("[[stage]]").next().expect("scene text");
     let head = set(head, "seed_scale", "1.0");
@@ -272,126 +271,311 @@ fn rsa_variant(scene: &str, limit: u64) -> String {
     )
 }
 
-/// Case 2 (Fig. 9).
+/// Case 2 (Fig. 9): success rate ψ and CPU time per success t_ψ against φ_M for A16 with
+/// Δd = 1 mm in the 80 mm cube, by RSA of the coated grains (diameters d + Δd, grains at
+/// true size may touch the walls, N^F = 10⁶) and by EDMD (`a16_80mm_gap1.toml`: RSA at
+/// true size, absolute growth until Δd/2 is gained, Eq. 31). Each method steps φ_M by the
+/// paper's 0.5 % from a fraction every run reaches until no run succeeds, seeds 1…25, all
+/// runs of a step in parallel. Quick: RSA at 0.40 and EDMD at 0.535, one seed each.
 pub fn gap(ctx: &StudyContext) -> StudyOutput {
-    let fractions: &[f64] = if ctx.quick {
-        &[0.535]
+    // (method, first φ_M, last φ_M tried)
+    let sweeps: [(&str, f64, f64); 2] = if ctx.quick {
+        [("RSA", 0.40, 0.40), ("EDMD", 0.535, 0.535)]
     } else {
-        &[0.50, 0.52, 0.535]
+        [("RSA", 0.44, 0.60), ("EDMD", 0.525, 0.60)]
     };
-    let seeds = if ctx.quick { 1 } else { 10 };
+    // The paper's 50 seeds per step take about two CPU hours here; 25 keep the study near
+    // one hour on two cores.
+    let seeds: u64 = if ctx.quick { 1 } else { 25 };
     let mut table = Table::new(
         "Concrete case 2: A16, 80 mm walled cube, d_min = 2 mm, Δd = 1 mm (paper 001, Fig. 9)",
         &format!(
-            "`a16_80mm_gap1.toml` with φ_M varied, seeds 1…{seeds}. Paper: EDMD succeeds in 90 % \
-             of the runs at φ_M = 53.5 %, ~5 000 grains, ~4 million events, 135 s per run (one \
-             2 GHz Xeon core); speed-up = 135 s / t_ψ."
+            "Seeds 1…{seeds} per step, ψ = successes / runs, t_ψ = CPU seconds of all runs / \
+             successes (each run's own thread). RSA places the coated grains (d + Δd; at their \
+             true size they may touch the walls) and fails a run after N^F = 10⁶ consecutive \
+             rejections of one grain. EDMD: \
+             `a16_80mm_gap1.toml` with φ_M varied. Paper: EDMD succeeds in 90 % of the runs at \
+             φ_M = 53.5 % with ~4 million events and 135 s per run (one 2 GHz Xeon core; \
+             speed-up = 135 s / t_ψ); the highest φ_M are 53.5 % (EDMD) and 48 % (RSA)."
         ),
         &[
+            "method",
             "φ_M",
             "runs",
             "ψ",
-            "t_ψ s",
+            "t_ψ s (CPU)",
             "speed-up vs paper",
             "mean events (successes)",
             "failures",
         ],
     );
-    let mut points = Vec::new();
-    for &phi in fractions {
-        let scene = set(GAP_SCENE, "mixture_fraction", &format!("{phi}"));
-        let runs: Vec<Run> = (1..=seeds)
-            .map(|seed| run(&set(&scene, "seed", &seed.to_string())))
-            .collect();
-        let (psi, t) = success_row(&runs, |r| r.seconds);
-        let ok: Vec<&Run> = runs.iter().filter(|r| r.ok).collect();
-        let events = ok.iter().map(|r| r.events as f64).sum::<f64>() / ok.len().max(1) as f64;
-        let failures: Vec<&str> = runs
-            .iter()
-            .filter(|r| !r.ok)
-            .map(|r| r.message.split(':').nth(1).unwrap_or("").trim())
-            .collect();
-        points.push((phi, t));
-        table.row(vec![
-            format!("{phi}"),
-            seeds.to_string(),
-            format!("{psi:.2}"),
-            format!("{t:.1}"),
-            format!("{:.1}", 135.0 / t),
-            format!("{events:.3e}"),
-            if failures.is_empty() {
-                "—".to_owned()
+    let mut summary = Table::new(
+        "Concrete case 2: highest φ_M with ψ ≥ 0.5, against paper 001",
+        "From the table above (its 0.5 % grid).",
+        &["method", "highest φ_M, ψ ≥ 0.5", "paper (§6.3)"],
+    );
+    let mut series = Vec::new();
+    for (method, first, last) in sweeps {
+        let mut points = Vec::new();
+        let mut highest = None;
+        for phi in steps(first, last, 0.005) {
+            let edmd = set(GAP_SCENE, "mixture_fraction", &format!("{phi}"));
+            let scene = if method == "RSA" {
+                rsa_variant(&edmd, 1_000_000).replacen(
+                    "[particles]\n",
+                    "[particles]\ngap = 1.0\nwall_gap = 0.0\n",
+                    1,
+                )
             } else {
-                failures.join("; ")
-            },
+                edmd
+            };
+            let scenes: Vec<String> = (1..=seeds)
+                .map(|seed| set(&scene, "seed", &seed.to_string()))
+                .collect();
+            let runs = run_parallel(&scenes);
+            let (psi, t) = success_row(&runs, |r| r.cpu_seconds);
+            let ok: Vec<&Run> = runs.iter().filter(|r| r.ok).collect();
+            let events = ok.iter().map(|r| r.events as f64).sum::<f64>() / ok.len().max(1) as f64;
+            let mut reasons: Vec<&str> = runs
+                .iter()
+                .filter(|r| !r.ok)
+                .map(|r| failure_kind(&r.message))
+                .collect();
+            reasons.sort_unstable();
+            reasons.dedup();
+            points.push((phi, psi));
+            if psi >= 0.5 {
+                highest = Some(phi);
+            }
+            table.row(vec![
+                method.into(),
+                format!("{phi}"),
+                seeds.to_string(),
+                format!("{psi:.2}"),
+                format!("{t:.2}"),
+                if method == "EDMD" && t.is_finite() {
+                    format!("{:.1}", 135.0 / t)
+                } else {
+                    "—".into()
+                },
+                if method == "EDMD" && !ok.is_empty() {
+                    format!("{events:.3e}")
+                } else {
+                    "—".into()
+                },
+                if reasons.is_empty() {
+                    "—".to_owned()
+                } else {
+                    reasons.join(", ")
+                },
+            ]);
+            eprintln!("gap {method} {phi}: ψ {psi:.2} t {t:.2}");
+            if psi == 0.0 {
+                break;
+            }
+        }
+        summary.row(vec![
+            method.into(),
+            highest.map_or("none".into(), |p| format!("{p}")),
+            if method == "RSA" { "0.48" } else { "0.535" }.into(),
         ]);
-        eprintln!("gap {phi}: ψ {psi:.2} t {t:.1}");
+        series.push(Series::line(method, points));
     }
+    let mut figure = Figure::new("A16 with Δd = 1 mm: success rate", "φ_M", "success rate ψ");
+    figure.series = series;
+    figure = figure.with(Series::points("paper: EDMD ψ = 0.9", vec![(0.535, 0.9)]));
     StudyOutput {
-        markdown: table.markdown(),
+        markdown: table.markdown() + "\n" + &summary.markdown(),
         csv: table,
-        figure: Figure::new("A16 with Δd = 1 mm: time per success", "φ_M", "t_ψ (s)")
-            .with(Series::line("densepack", points))
-            .with(Series::points("paper (φ_M = 0.535)", vec![(0.535, 135.0)])),
+        figure,
     }
 }
 
-/// Case 3 (Fig. 10–11).
+/// Runs every scene of `scenes`, one per core at a time, and returns their outcomes in the
+/// same order. Each run gets a one-thread rayon pool of its own, so that its seeding (which
+/// otherwise fans out over the global pool) stays on the thread whose CPU time [`run`]
+/// measures.
+fn run_parallel(scenes: &[String]) -> Vec<Run> {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::Mutex;
+    let next = AtomicUsize::new(0);
+    let results: Mutex<Vec<Option<Run>>> = Mutex::new((0..scenes.len()).map(|_| None).collect());
+    let workers = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(scenes.len());
+    std::thread::scope(|scope| {
+        for _ in 0..workers {
+            scope.spawn(|| {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(1)
+                    .build()
+                    .expect("a one-thread pool");
+                loop {
+                    let k = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(text) = scenes.get(k) else { break };
+                    let r = pool.install(|| run(text));
+                    results.lock().expect("no worker panicked")[k] = Some(r);
+                }
+            });
+        }
+    });
+    results
+        .into_inner()
+        .expect("no worker panicked")
+        .into_iter()
+        .map(|r| r.expect("every scene ran"))
+        .collect()
+}
+
+/// Reduced pressure at which the Δd maximisation study stops: Δd has settled to about
+/// 10⁻⁵ mm by then (BENCHMARKS.md, case 3), at under half the events of Z = 10¹².
+const GAPMAX_PRESSURE: &str = "1e6";
+
+/// Case 3 (Fig. 10–11): Δd_max against d_min = 4 and 2 mm for A16 and B16 at φ_M = 60 % and
+/// 70 %, with the gap kept to the walls (λ = 0.5) and with the walls seeing the grains at
+/// their true size (λ = 0), seeds 1…3 (about 40 CPU minutes). Quick: the 80 mm cube,
+/// d_min = 4 mm, λ = 0.5, one seed.
 pub fn gapmax(ctx: &StudyContext) -> StudyOutput {
-    let edge = if ctx.quick { 80.0 } else { 150.0 };
+    if ctx.quick {
+        gapmax_rows(80.0, &[4.0], &[0.5], 1)
+    } else {
+        gapmax_rows(150.0, &[4.0, 2.0], &[0.5, 0.0], 3)
+    }
+}
+
+/// Case 3 at d_min = 1 mm: the rows of [`gapmax`] with about 3·10⁵ grains each (hours).
+/// Quick: a 30 mm cube, λ = 0.5, one seed.
+pub fn gapmax_fine(ctx: &StudyContext) -> StudyOutput {
+    if ctx.quick {
+        gapmax_rows(30.0, &[1.0], &[0.5], 1)
+    } else {
+        gapmax_rows(150.0, &[1.0], &[0.5, 0.0], 3)
+    }
+}
+
+/// The Δd maximisation rows: every wall treatment λ of `walls`, curve, φ_M and d_min of
+/// `d_mins` in a cube of edge `edge`, seeds 1…`seeds`, all runs in parallel.
+fn gapmax_rows(edge: f64, d_mins: &[f64], walls: &[f64], seeds: u64) -> StudyOutput {
     let mut table = Table::new(
         &format!(
-            "Concrete case 3: Δd maximisation, {edge} mm walled cube, d_min = 2 mm \
+            "Concrete case 3: Δd maximisation against d_min, {edge} mm walled cube \
              (paper 001, Fig. 10–11)"
         ),
-        "`b16_150mm_gapmax.toml` with curve, φ_M and edge substituted. Paper (150 mm cube): \
-         B16 reaches Δd ≥ d_min/2 = 1 mm at φ_M = 60 % and 70 %, A16 does not.",
-        &["curve", "φ_M", "grains", "Δd_max mm", "events", "wall s"],
+        &format!(
+            "`b16_150mm_gapmax.toml` with curve, φ_M, d_min, edge, seed and the wall treatment \
+             substituted, stopped at Z = {GAPMAX_PRESSURE}; seeds 1…{seeds}, mean ± sample \
+             deviation. λ is `wall_gap_fraction`: 0.5 keeps Δd/2 to the walls, 0 lets the \
+             walls see the grains at their true size. The paper (150 mm cube, d_min = 2 mm) \
+             reaches 2Δd ≥ d_min with B16 at φ_M = 60 % and 70 %, not with A16. CPU s: the \
+             run's own thread (runs in parallel, one per core)."
+        ),
+        &[
+            "curve",
+            "φ_M",
+            "d_min mm",
+            "λ",
+            "grains",
+            "runs ok",
+            "Δd_max mm",
+            "2Δd_max/d_min",
+            "runs with 2Δd ≥ d_min",
+            "events",
+            "CPU s",
+        ],
     );
-    let mut series = Vec::new();
-    for curve in ["A16", "B16"] {
-        let mut points = Vec::new();
-        for phi in [0.60, 0.70] {
-            let scene = set(
-                &set(
-                    &set(GAPMAX_SCENE, "mixture_fraction", &format!("{phi}")),
-                    "grading",
-                    &format!("{{ kind = \"din\", name = \"{curve}\" }}"),
-                ),
-                "size",
-                &format!("[{edge:?}, {edge:?}, {edge:?}]"),
-            );
-            let parsed = Scene::from_toml(&scene).expect("bench scene");
-            let grains = parsed
-                .take_phase()
-                .expect("graded")
-                .expect("valid")
-                .expected_count();
-            let r = run(&scene);
-            if r.ok {
-                points.push((phi, r.min_gap));
+    let mut cases = Vec::new();
+    let mut scenes = Vec::new();
+    for &lambda in walls {
+        for curve in ["A16", "B16"] {
+            for phi in [0.60, 0.70] {
+                for &d_min in d_mins {
+                    let mut scene = GAPMAX_SCENE.to_owned();
+                    for (key, value) in [
+                        ("mixture_fraction", format!("{phi}")),
+                        (
+                            "grading",
+                            format!("{{ kind = \"din\", name = \"{curve}\" }}"),
+                        ),
+                        ("size", format!("[{edge:?}, {edge:?}, {edge:?}]")),
+                        ("d_min", format!("{d_min:?}")),
+                        ("max_wall_seconds", "86400".to_owned()),
+                        (
+                            "until",
+                            format!(
+                                "{{ max_gap = true, reduced_pressure = {GAPMAX_PRESSURE} }}\n\
+                                 wall_gap_fraction = {lambda:?}"
+                            ),
+                        ),
+                    ] {
+                        scene = set(&scene, key, &value);
+                    }
+                    let grains = Scene::from_toml(&scene)
+                        .expect("bench scene")
+                        .take_phase()
+                        .expect("graded")
+                        .expect("valid")
+                        .expected_count();
+                    cases.push((lambda, curve, phi, d_min, grains));
+                    for seed in 1..=seeds {
+                        scenes.push(set(&scene, "seed", &seed.to_string()));
+                    }
+                }
             }
-            table.row(vec![
-                curve.into(),
-                format!("{phi}"),
-                format!("{grains:.0}"),
-                if r.ok {
-                    format!("{:.3}", r.min_gap)
-                } else {
-                    format!("failed: {}", r.message)
-                },
-                format!("{:.3e}", r.events as f64),
-                format!("{:.1}", r.seconds),
-            ]);
+        }
+    }
+    let runs = run_parallel(&scenes);
+    let mut series: Vec<Series> = Vec::new();
+    for (k, &(lambda, curve, phi, d_min, grains)) in cases.iter().enumerate() {
+        let of_case = &runs[k * seeds as usize..(k + 1) * seeds as usize];
+        let ok: Vec<&Run> = of_case.iter().filter(|r| r.ok).collect();
+        let gaps: Vec<f64> = ok.iter().map(|r| r.min_gap).collect();
+        let (gap, sd) = mean_sd(&gaps);
+        let mean_of = |f: fn(&Run) -> f64| ok.iter().map(|r| f(r)).sum::<f64>() / ok.len() as f64;
+        for r in of_case.iter().filter(|r| !r.ok) {
             eprintln!(
-                "gapmax {curve} {phi}: Δd {:.3} in {:.1} s",
-                r.min_gap, r.seconds
+                "gapmax {curve} {phi} d_min {d_min} λ {lambda}: {}",
+                r.message
             );
         }
-        series.push(Series::line(curve, points));
+        let label = format!("{curve}, φ_M {phi}, λ {lambda}");
+        if !ok.is_empty() {
+            match series.iter_mut().find(|s| s.label == label) {
+                Some(s) => s.points.push((d_min, gap)),
+                None => series.push(Series::line(label, vec![(d_min, gap)])),
+            }
+        }
+        table.row(vec![
+            curve.into(),
+            format!("{phi}"),
+            format!("{d_min}"),
+            format!("{lambda}"),
+            format!("{grains:.0}"),
+            format!("{}/{seeds}", ok.len()),
+            if ok.is_empty() {
+                "failed".into()
+            } else {
+                format!("{gap:.4} ± {sd:.4}")
+            },
+            format!("{:.3}", 2.0 * gap / d_min),
+            format!(
+                "{}/{}",
+                gaps.iter().filter(|&&g| 2.0 * g >= d_min).count(),
+                ok.len()
+            ),
+            format!("{:.3e}", mean_of(|r| r.events as f64)),
+            format!("{:.1}", mean_of(|r| r.cpu_seconds)),
+        ]);
     }
-    let mut figure = Figure::new("Largest minimum gap Δd_max", "φ_M", "Δd_max (mm)");
+    let mut figure = Figure::new(
+        "Largest minimum gap Δd_max against d_min",
+        "d_min (mm)",
+        "Δd_max (mm)",
+    );
     figure.series = series;
+    figure = figure.with(Series::points(
+        "2Δd = d_min",
+        d_mins.iter().map(|&d| (d, d / 2.0)).collect(),
+    ));
     StudyOutput {
         markdown: table.markdown(),
         csv: table,

@@ -179,15 +179,22 @@ pub const STUDIES: &[Study] = &[
     },
     Study {
         name: "gap",
-        summary: "concrete case 2: A16 with Δd = 1 mm (paper 001, Fig. 9)",
+        summary:
+            "concrete case 2: A16 with Δd = 1 mm, RSA and EDMD ψ against φ_M (paper 001, Fig. 9)",
         default: true,
         run: concrete::gap,
     },
     Study {
         name: "gapmax",
-        summary: "concrete case 3: Δd maximisation (paper 001, Fig. 10–11); opt-in, slow",
+        summary: "concrete case 3: Δd_max at d_min = 4, 2 mm (paper 001, Fig. 10–11); opt-in",
         default: false,
         run: concrete::gapmax,
+    },
+    Study {
+        name: "gapmax-fine",
+        summary: "concrete case 3 at d_min = 1 mm (paper 001, Fig. 10–11); opt-in, hours",
+        default: false,
+        run: concrete::gapmax_fine,
     },
     Study {
         name: "fuller",
