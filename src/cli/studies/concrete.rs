@@ -246,6 +246,7 @@ pub fn fuller(ctx: &StudyContext) -> StudyOutput {
 fn failure_kind(message: &str) -> &'static str {
     [
         "stalled",
+        "jammed_before_goal",
         "wall_clock_limit",
         "event_limit",
         "pressure_reached",
@@ -553,6 +554,8 @@ fn gapmax_rows(edge: f64, d_mins: &[f64], walls: &[f64], seeds: u64) -> StudyOut
             format!("{}/{seeds}", ok.len()),
             if ok.is_empty() {
                 "failed".into()
+            } else if ok.len() == 1 {
+                format!("{gap:.4}")
             } else {
                 format!("{gap:.4} ± {sd:.4}")
             },
