@@ -285,8 +285,8 @@ pub fn gap(ctx: &StudyContext) -> StudyOutput {
     } else {
         [("RSA", 0.44, 0.60), ("EDMD", 0.525, 0.60)]
     };
-    // The paper's 50 seeds per step take about two CPU hours here; 25 keep the study near
-    // one hour on two cores.
+    // 25 seeds per step keep the full sweep under half an hour on two cores; the paper's 50
+    // double that.
     let seeds: u64 = if ctx.quick { 1 } else { 25 };
     let mut table = Table::new(
         "Concrete case 2: A16, 80 mm walled cube, d_min = 2 mm, Δd = 1 mm (paper 001, Fig. 9)",
