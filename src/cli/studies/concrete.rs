@@ -13,7 +13,7 @@
 //! * [`gapmax`] (Fig. 10–11) — Δd maximisation (`b16_150mm_gapmax.toml`): A16 and B16 at
 //!   φ_M = 60 % and 70 %, d_min = 4 and 2 mm, the gap kept to the walls or not, three
 //!   seeds each; 150 mm cube (quick: 80 mm, d_min = 4 mm, one seed). [`gapmax_fine`]: the
-//!   same at d_min = 1 mm (about 3·10⁵ grains per run, hours).
+//!   same at d_min = 1 mm (1.8–2.3·10⁵ grains per run, 15–20 CPU minutes each).
 //! * [`jam`] — jamming speed: A16 (φ_M = 0.535) and Fuller q = 0.5 (φ_eff = 0.60) in
 //!   the 80 mm walled cube, RSA at true size, grown (relative rate 0.05) to reduced pressure
 //!   10¹²: events/s, and the smallest gaps to pairs and walls by the independent check.
@@ -444,7 +444,8 @@ pub fn gapmax(ctx: &StudyContext) -> StudyOutput {
     }
 }
 
-/// Case 3 at d_min = 1 mm: the rows of [`gapmax`] with about 3·10⁵ grains each (hours).
+/// Case 3 at d_min = 1 mm: the rows of [`gapmax`] with 1.8–2.3·10⁵ grains each (15–20
+/// CPU minutes per run, about 7 CPU hours in all).
 /// Quick: a 30 mm cube, λ = 0.5, one seed.
 pub fn gapmax_fine(ctx: &StudyContext) -> StudyOutput {
     if ctx.quick {
