@@ -191,12 +191,6 @@ pub fn fuller(ctx: &StudyContext) -> StudyOutput {
             ));
             for (method, runs) in methods {
                 let (psi, t) = success_row(&runs, |r| r.cpu_seconds);
-                let mut reasons: Vec<&str> = runs
-                    .iter()
-                    .filter(|r| !r.ok)
-                    .map(|r| failure_kind(&r.message))
-                    .collect();
-                reasons.dedup();
                 table.row(vec![
                     format!("{edge}"),
                     format!("{phi}"),
@@ -204,11 +198,7 @@ pub fn fuller(ctx: &StudyContext) -> StudyOutput {
                     seeds.to_string(),
                     format!("{psi:.2}"),
                     format!("{t:.2}"),
-                    if reasons.is_empty() {
-                        "—".into()
-                    } else {
-                        reasons.join(", ")
-                    },
+                    failure_kinds(&runs),
                 ]);
                 eprintln!("fuller {edge} {phi} {method}: ψ {psi:.2} t {t:.2}");
                 if psi >= 0.5 {
@@ -239,6 +229,22 @@ pub fn fuller(ctx: &StudyContext) -> StudyOutput {
         markdown: table.markdown() + "\n" + &summary.markdown(),
         csv: table,
         figure,
+    }
+}
+
+/// The distinct [`failure_kind`]s of the failed runs of `runs`, sorted and joined, or "—".
+fn failure_kinds(runs: &[Run]) -> String {
+    let mut kinds: Vec<&str> = runs
+        .iter()
+        .filter(|r| !r.ok)
+        .map(|r| failure_kind(&r.message))
+        .collect();
+    kinds.sort_unstable();
+    kinds.dedup();
+    if kinds.is_empty() {
+        "—".into()
+    } else {
+        kinds.join(", ")
     }
 }
 
@@ -337,13 +343,6 @@ pub fn gap(ctx: &StudyContext) -> StudyOutput {
             let (psi, t) = success_row(&runs, |r| r.cpu_seconds);
             let ok: Vec<&Run> = runs.iter().filter(|r| r.ok).collect();
             let events = ok.iter().map(|r| r.events as f64).sum::<f64>() / ok.len().max(1) as f64;
-            let mut reasons: Vec<&str> = runs
-                .iter()
-                .filter(|r| !r.ok)
-                .map(|r| failure_kind(&r.message))
-                .collect();
-            reasons.sort_unstable();
-            reasons.dedup();
             points.push((phi, psi));
             if psi >= 0.5 {
                 highest = Some(phi);
@@ -364,11 +363,7 @@ pub fn gap(ctx: &StudyContext) -> StudyOutput {
                 } else {
                     "—".into()
                 },
-                if reasons.is_empty() {
-                    "—".to_owned()
-                } else {
-                    reasons.join(", ")
-                },
+                failure_kinds(&runs),
             ]);
             eprintln!("gap {method} {phi}: ψ {psi:.2} t {t:.2}");
             if psi == 0.0 {
