@@ -2,7 +2,8 @@
 //!
 //! One module on purpose (about 1 350 lines with its tests): its worth is its independence
 //! from the kernel, so the pair tests, cell levels, distances and report stay here, shared
-//! with nothing else. The bodies it tests are those of the written records
+//! with nothing the kernel uses (the analysis, also independent of the kernel, finds its
+//! pairs through the same cell levels, [`PairLevels`]). The bodies it tests are those of the written records
 //! ([`crate::io::record::RecordShape::body`]), never the kernel's shapes.
 //!
 //! This module shares no code with the kernel's prediction, cell grid or boundaries: it works
@@ -424,70 +425,19 @@ pub fn verify_with(packing: &Packing, options: &VerifyOptions) -> Verification {
         }
     }
 
-    // Pairs through levels of cells, each counting-sorted by cell. Level 0 has cells at
-    // least as wide as the largest contact diameter `2 r_max + gap`, each finer level half
-    // as wide, down to the smallest contact diameter or until a level would have more than
-    // about 2 cells per ball. A ball belongs to the finest level whose cells are at least its
-    // contact diameter `2 r + gap` wide. A ball `i` looks for partners at its own level and
-    // at every coarser one, in the 3 × 3 × 3 cells around it: a partner `j` at level
-    // `l ≤ L_i` has `2 r_j + gap ≤ h_l` and `2 r_i + gap ≤ h_{L_i} ≤ h_l`, so a conflict
-    // (`|c_i − c_j| < r_i + r_j + gap ≤ h_l`) lies in a neighbouring cell along every axis.
-    // Each pair is seen once (from its finer ball; at one level, from the lower index). One
-    // level of cells as wide as the largest grain would hold thousands of small grains per
-    // cell for concrete (size ratio 32): a quadratic search at 10⁶ grains.
-    let r_max = balls.iter().map(|b| b.r).fold(0.0, f64::max);
-    let r_min = balls.iter().map(|b| b.r).fold(f64::INFINITY, f64::min);
+    // Pairs through levels of cells ([`PairLevels`]): a conflict is closer than the sum of
+    // the two contact radii `r + gap/2`. One level of cells as wide as the largest grain
+    // would hold thousands of small grains per cell for concrete (size ratio 32): a quadratic
+    // search at 10⁶ grains.
     let len = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
-    let max_cells = 2 * balls.len() as i64 + 27;
-    let cells_along = |h: f64| -> [i64; 3] {
-        std::array::from_fn(|k| ((len[k] / h).floor().min(1e6) as i64).max(1))
-    };
-    let mut widths = vec![(2.0 * r_max + gap).max(f64::MIN_POSITIVE)];
-    while cells_along(widths[0]).iter().product::<i64>() > max_cells {
-        widths[0] *= 1.25;
-    }
-    // At most 64 levels (a size ratio of 2⁶³; `level_of` is a `u8`): any prefix of the
-    // halvings is a valid set of levels, since every ball fits the coarsest one. An
-    // infinite width (radii near `f64::MAX`) halves to itself and ends the halving too.
-    while widths.len() < 64 {
-        let h = 0.5 * widths[widths.len() - 1];
-        // Negated comparison: a NaN width ends the halving too.
-        let holds_the_smallest = h >= 2.0 * r_min + gap;
-        if !holds_the_smallest
-            || !h.is_finite()
-            || cells_along(h).iter().product::<i64>() > max_cells
-        {
-            break;
-        }
-        widths.push(h);
-    }
-    let level_of: Vec<u8> = balls
-        .iter()
-        .map(|b| {
-            widths
-                .iter()
-                .rposition(|&h| h >= 2.0 * b.r + gap)
-                .unwrap_or(0) as u8
-        })
-        .collect();
-    let levels: Vec<PairLevel> = widths
-        .iter()
-        .enumerate()
-        .map(|(l, &h)| {
-            let members = level_of
-                .iter()
-                .enumerate()
-                .filter(|&(_, &li)| li as usize == l);
-            PairLevel::sorted(
-                cells_along(h),
-                lo,
-                len,
-                periodic,
-                &balls,
-                members.map(|(i, _)| i),
-            )
-        })
-        .collect();
+    let pairs = PairLevels::new(
+        lo,
+        len,
+        periodic,
+        balls.len(),
+        |i| balls[i].c,
+        |i| 2.0 * balls[i].r + gap,
+    );
     // A particle against its own images. An ellipsoid: every image its bounding sphere
     // reaches, claimed gap included (each pair of opposite shifts once), since a needle
     // longer than the box edge along its axis overlaps itself. A sphere: its nearest image,
@@ -532,57 +482,41 @@ pub fn verify_with(packing: &Packing, options: &VerifyOptions) -> Verification {
             let mut seen: Vec<u32> = Vec::with_capacity(27);
             for i in start..(start + chunk).min(balls.len()) {
                 let bi = &balls[i];
-                let own = level_of[i] as usize;
-                for (l, level) in levels[..=own].iter().enumerate() {
-                    level.neighbour_cells(&bi.c, &mut seen);
-                    for &c in &seen {
-                        for j in level.members(c).iter().map(|&j| j as usize) {
-                            if l == own && j <= i {
-                                continue;
-                            }
-                            let bj = &balls[j];
-                            let mut d2 = 0.0;
-                            let mut dv = [0.0; 3];
-                            for k in 0..3 {
-                                let mut d = bi.c[k] - bj.c[k];
-                                if periodic[k] {
-                                    d -= len[k] * (d / len[k]).round();
-                                }
-                                dv[k] = d;
-                                d2 += d * d;
-                            }
-                            if oriented[i].is_some() || oriented[j].is_some() {
-                                // Every periodic image whose bounding sphere reaches `i`'s (a
-                                // needle as long as the box meets several images of a partner).
-                                let d = Vector3::from(dv);
-                                let mi = shape_matrix_of(oriented[i].as_deref(), bi.r);
-                                let mj = shape_matrix_of(oriented[j].as_deref(), bj.r);
-                                // The gap claim is certified through the smallest semi-axes.
-                                let inner = oriented[i].as_ref().map_or(bi.r, |e| e.a_min)
-                                    + oriented[j].as_ref().map_or(bj.r, |e| e.a_min);
-                                // Bounding spheres more than the claimed gap apart keep every promise.
-                                let reach = bi.r + bj.r + gap;
-                                let Some(shifts) = lattice_shifts(&d, reach, &len, periodic) else {
-                                    too_many_images(&mut out, i, j);
-                                    continue;
-                                };
-                                for t in shifts {
-                                    let image = d + t;
-                                    check_ellipsoids(
-                                        &mut out,
-                                        (i, j),
-                                        &mi,
-                                        &mj,
-                                        &image,
-                                        (gap, inner),
-                                    );
-                                }
-                                continue;
-                            }
-                            check_spheres(&mut out, &nearest, (i, j), d2.sqrt(), (bi.r, bj.r), gap);
+                pairs.for_each_pair_of(i, &bi.c, &mut seen, |j| {
+                    let bj = &balls[j];
+                    let mut d2 = 0.0;
+                    let mut dv = [0.0; 3];
+                    for k in 0..3 {
+                        let mut d = bi.c[k] - bj.c[k];
+                        if periodic[k] {
+                            d -= len[k] * (d / len[k]).round();
                         }
+                        dv[k] = d;
+                        d2 += d * d;
                     }
-                }
+                    if oriented[i].is_some() || oriented[j].is_some() {
+                        // Every periodic image whose bounding sphere reaches `i`'s (a
+                        // needle as long as the box meets several images of a partner).
+                        let d = Vector3::from(dv);
+                        let mi = shape_matrix_of(oriented[i].as_deref(), bi.r);
+                        let mj = shape_matrix_of(oriented[j].as_deref(), bj.r);
+                        // The gap claim is certified through the smallest semi-axes.
+                        let inner = oriented[i].as_ref().map_or(bi.r, |e| e.a_min)
+                            + oriented[j].as_ref().map_or(bj.r, |e| e.a_min);
+                        // Bounding spheres more than the claimed gap apart keep every promise.
+                        let reach = bi.r + bj.r + gap;
+                        let Some(shifts) = lattice_shifts(&d, reach, &len, periodic) else {
+                            too_many_images(&mut out, i, j);
+                            return;
+                        };
+                        for t in shifts {
+                            let image = d + t;
+                            check_ellipsoids(&mut out, (i, j), &mi, &mj, &image, (gap, inner));
+                        }
+                        return;
+                    }
+                    check_spheres(&mut out, &nearest, (i, j), d2.sqrt(), (bi.r, bj.r), gap);
+                });
             }
             out
         })
@@ -684,10 +618,124 @@ fn check_spheres(
     }
 }
 
-/// One level of the pair search of [`verify`]: a box of `ncell` cells per axis and its balls
-/// counting-sorted by cell (the members of cell `c` are `sorted[start[c]..start[c + 1]]`):
-/// 4 bytes per ball and per cell, no allocation per cell.
+/// Candidate pairs of balls through levels of cells, each counting-sorted by cell: the pair
+/// search of [`verify`] and of the analysis ([`crate::analysis`]), both independent of the
+/// kernel's cell grid and lists. A pair to find is closer than `(D_i + D_j)/2`, `D` each
+/// ball's *reach diameter* (for the overlap check the contact diameter `2r + gap`).
+///
+/// Level 0 has cells at least as wide as the largest `D`, each finer level half as wide,
+/// down to the smallest `D` or until a level would have more than about 2 cells per ball
+/// (at most 64 levels). A ball belongs to the finest level whose cells are at least `D`
+/// wide. A partner `j` at a level `l` no finer than `i`'s has `D_j ≤ h_l` and `D_i ≤ h_l`,
+/// so a pair to find lies in the 3 × 3 × 3 cells around `i` at level `l`: each pair is found
+/// from its finer ball (at one level, from the lower index), and a search costs the same
+/// per ball whatever the size ratio. Memory: a byte per ball, 4 bytes per ball and per cell.
+pub(crate) struct PairLevels {
+    levels: Vec<PairLevel>,
+    level_of: Vec<u8>,
+}
+
+impl PairLevels {
+    /// The levels of `n` balls with centres `centre(i)` and reach diameters `diameter(i)` in
+    /// the box `[lo, lo + len]` (axes `periodic` wrap).
+    pub(crate) fn new(
+        lo: [f64; 3],
+        len: [f64; 3],
+        periodic: [bool; 3],
+        n: usize,
+        centre: impl Fn(usize) -> [f64; 3],
+        diameter: impl Fn(usize) -> f64,
+    ) -> Self {
+        let (d_min, d_max) = (0..n)
+            .map(&diameter)
+            .fold((f64::INFINITY, 0.0_f64), |m, d| (m.0.min(d), m.1.max(d)));
+        let max_cells = 2 * n as i64 + 27;
+        let cells_along = |h: f64| -> [i64; 3] {
+            std::array::from_fn(|k| ((len[k] / h).floor().min(1e6) as i64).max(1))
+        };
+        let mut widths = vec![d_max.max(f64::MIN_POSITIVE)];
+        while cells_along(widths[0]).iter().product::<i64>() > max_cells {
+            widths[0] *= 1.25;
+        }
+        // Any prefix of the halvings is a valid set of levels, since every ball fits the
+        // coarsest one. An infinite width (radii near `f64::MAX`) halves to itself and ends
+        // the halving too.
+        while widths.len() < 64 {
+            let h = 0.5 * widths[widths.len() - 1];
+            // Negated comparison: a NaN width ends the halving too.
+            let holds_the_smallest = h >= d_min;
+            if !holds_the_smallest
+                || !h.is_finite()
+                || cells_along(h).iter().product::<i64>() > max_cells
+            {
+                break;
+            }
+            widths.push(h);
+        }
+        let level_of: Vec<u8> = (0..n)
+            .map(|i| {
+                let d = diameter(i);
+                widths.iter().rposition(|&h| h >= d).unwrap_or(0) as u8
+            })
+            .collect();
+        let levels = widths
+            .iter()
+            .enumerate()
+            .map(|(l, &h)| {
+                let members = (0..n).filter(|&i| level_of[i] as usize == l);
+                PairLevel::sorted(h, cells_along(h), lo, len, periodic, &centre, members)
+            })
+            .collect();
+        Self { levels, level_of }
+    }
+
+    /// Calls `f(j)` for the candidate partners `j` of ball `i` (centre `c`) that find their
+    /// pair from `i`: the balls of coarser levels and those of `i`'s level with `j > i`, in
+    /// the cells around `i`. Over all `i` every pair closer than `(D_i + D_j)/2` is visited
+    /// exactly once. `seen` is scratch.
+    pub(crate) fn for_each_pair_of(
+        &self,
+        i: usize,
+        c: &[f64; 3],
+        seen: &mut Vec<u32>,
+        mut f: impl FnMut(usize),
+    ) {
+        let own = self.level_of[i] as usize;
+        for (l, level) in self.levels[..=own].iter().enumerate() {
+            level.cells_within(c, level.width, seen);
+            for &cell in seen.iter() {
+                for j in level.members(cell).iter().map(|&j| j as usize) {
+                    if l < own || j > i {
+                        f(j);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Calls `f(j)` once for every ball `j` (at any level, a ball at `c` itself included)
+    /// that may be closer to the point `c` than `(d + D_j)/2`. `seen` is scratch.
+    pub(crate) fn for_each_near(
+        &self,
+        c: &[f64; 3],
+        d: f64,
+        seen: &mut Vec<u32>,
+        mut f: impl FnMut(usize),
+    ) {
+        for level in &self.levels {
+            level.cells_within(c, 0.5 * (d + level.width), seen);
+            for &cell in seen.iter() {
+                level.members(cell).iter().for_each(|&j| f(j as usize));
+            }
+        }
+    }
+}
+
+/// One level of [`PairLevels`]: a box of `ncell` cells per axis, each at least `width`
+/// wide, and its balls counting-sorted by cell (the members of cell `c` are
+/// `sorted[start[c]..start[c + 1]]`): 4 bytes per ball and per cell, no allocation per cell.
 struct PairLevel {
+    width: f64,
     lo: [f64; 3],
     len: [f64; 3],
     periodic: [bool; 3],
@@ -697,17 +745,19 @@ struct PairLevel {
 }
 
 impl PairLevel {
-    /// The level of `ncell` cells over the box `[lo, lo + len]` holding the balls `members`
-    /// (ascending indices).
+    /// The level of `ncell` cells (at least `width` wide) over the box `[lo, lo + len]`
+    /// holding the balls `members` (ascending indices) with centres `centre(i)`.
     fn sorted(
+        width: f64,
         ncell: [i64; 3],
         lo: [f64; 3],
         len: [f64; 3],
         periodic: [bool; 3],
-        balls: &[Ball],
+        centre: impl Fn(usize) -> [f64; 3],
         members: impl Iterator<Item = usize> + Clone,
     ) -> Self {
         let mut level = Self {
+            width,
             lo,
             len,
             periodic,
@@ -716,7 +766,7 @@ impl PairLevel {
             sorted: Vec::new(),
         };
         for i in members.clone() {
-            let c = level.linear(&level.key(&balls[i].c));
+            let c = level.linear(&level.key(&centre(i)));
             level.start[c + 1] += 1;
         }
         for c in 1..level.start.len() {
@@ -725,19 +775,21 @@ impl PairLevel {
         level.sorted = vec![0u32; level.start[level.start.len() - 1] as usize];
         let mut fill = level.start.clone();
         for i in members {
-            let c = level.linear(&level.key(&balls[i].c));
+            let c = level.linear(&level.key(&centre(i)));
             level.sorted[fill[c] as usize] = i as u32;
             fill[c] += 1;
         }
         level
     }
 
+    /// Cell coordinate of `x` along axis `k`, not clamped.
+    fn coordinate(&self, k: usize, x: f64) -> i64 {
+        ((x - self.lo[k]) / (self.len[k] / self.ncell[k] as f64)).floor() as i64
+    }
+
     /// Cell coordinates of point `c` (clamped to the box).
     fn key(&self, c: &[f64; 3]) -> [i64; 3] {
-        std::array::from_fn(|k| {
-            let x = ((c[k] - self.lo[k]) / (self.len[k] / self.ncell[k] as f64)).floor() as i64;
-            x.clamp(0, self.ncell[k] - 1)
-        })
+        std::array::from_fn(|k| self.coordinate(k, c[k]).clamp(0, self.ncell[k] - 1))
     }
 
     fn linear(&self, k: &[i64; 3]) -> usize {
@@ -749,35 +801,34 @@ impl PairLevel {
         &self.sorted[self.start[c as usize] as usize..self.start[c as usize + 1] as usize]
     }
 
-    /// The cells around point `c`, each once, into `out`: the 3 × 3 × 3 block, clipped at
-    /// walls; a periodic axis of fewer than 3 cells contributes each of its cells once.
-    fn neighbour_cells(&self, c: &[f64; 3], out: &mut Vec<u32>) {
+    /// The cells that meet the cube of half-width `rho` around point `c` (clamped to the
+    /// box), each once, into `out`. With `rho` up to the cell width: the 3 × 3 × 3 block
+    /// around `c`'s cell, clipped at walls; along a periodic axis a span of `ncell` cells
+    /// or more gives each cell once.
+    fn cells_within(&self, c: &[f64; 3], rho: f64, out: &mut Vec<u32>) {
         out.clear();
-        let kc = self.key(c);
-        // Per axis: up to 3 cell coordinates.
-        let axis = |k: usize| -> ([i64; 3], usize) {
+        let key = self.key(c);
+        let span = |k: usize| -> (i64, i64) {
             let n = self.ncell[k];
-            let mut xs = [0i64; 3];
-            let mut count = 0;
-            for o in -1..=1 {
-                let x = if self.periodic[k] && n < 3 {
-                    o + 1
+            let centre = key[k];
+            let below = (centre - self.coordinate(k, c[k] - rho)).max(0);
+            let above = (self.coordinate(k, c[k] + rho) - centre).max(0);
+            if self.periodic[k] {
+                if below + above + 1 >= n {
+                    (0, n - 1)
                 } else {
-                    kc[k] + o
-                };
-                let x = if self.periodic[k] { x.rem_euclid(n) } else { x };
-                if (0..n).contains(&x) && !xs[..count].contains(&x) {
-                    xs[count] = x;
-                    count += 1;
+                    (centre - below, centre + above)
                 }
+            } else {
+                ((centre - below).max(0), (centre + above).min(n - 1))
             }
-            (xs, count)
         };
-        let (xs, ys, zs) = (axis(0), axis(1), axis(2));
-        for &x in &xs.0[..xs.1] {
-            for &y in &ys.0[..ys.1] {
-                for &z in &zs.0[..zs.1] {
-                    out.push(self.linear(&[x, y, z]) as u32);
+        let (xs, ys, zs) = (span(0), span(1), span(2));
+        let wrap = |k: usize, x: i64| x.rem_euclid(self.ncell[k]);
+        for x in xs.0..=xs.1 {
+            for y in ys.0..=ys.1 {
+                for z in zs.0..=zs.1 {
+                    out.push(self.linear(&[wrap(0, x), wrap(1, y), wrap(2, z)]) as u32);
                 }
             }
         }
@@ -1432,6 +1483,89 @@ mod tests {
             );
             assert_eq!(v.violation_count, expected, "seed {seed}");
             assert_eq!(v.min_pair_gap, Some(smallest), "seed {seed}");
+        }
+    }
+
+    #[test]
+    fn pair_levels_visit_every_near_pair_once() {
+        use rand::{Rng, SeedableRng};
+        // Reach diameters over a ratio of 40 (more than the concrete gradings' 32), boxes with
+        // and without periodic axes, one of them only about two of the largest reaches wide
+        // (a periodic axis of fewer than three cells at the coarse level).
+        for (seed, len, periodic, n) in [
+            (1, [12.0, 10.0, 8.0], [false; 3], 2000),
+            (2, [12.0, 10.0, 8.0], [true, false, true], 2000),
+            (3, [7.0, 12.0, 12.0], [true; 3], 2000),
+        ] {
+            let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);
+            let balls: Vec<([f64; 3], f64)> = (0..n)
+                .map(|_| {
+                    let d = 0.1 * 40f64.powf(rng.gen::<f64>());
+                    let c = std::array::from_fn(|k| rng.gen::<f64>() * len[k]);
+                    (c, d)
+                })
+                .collect();
+            let distance = |a: &[f64; 3], b: &[f64; 3]| -> f64 {
+                (0..3)
+                    .map(|k| {
+                        let mut d = a[k] - b[k];
+                        if periodic[k] {
+                            d -= len[k] * (d / len[k]).round();
+                        }
+                        d * d
+                    })
+                    .sum::<f64>()
+                    .sqrt()
+            };
+            let levels =
+                PairLevels::new([0.0; 3], len, periodic, n, |i| balls[i].0, |i| balls[i].1);
+            assert!(
+                levels.levels.len() >= 3,
+                "seed {seed}: a hierarchy of levels"
+            );
+            let mut seen = Vec::new();
+            let mut visits = vec![0u32; n * n];
+            for (i, (c, _)) in balls.iter().enumerate() {
+                levels.for_each_pair_of(i, c, &mut seen, |j| {
+                    visits[i.min(j) * n + i.max(j)] += 1;
+                });
+            }
+            assert!(
+                (0..n).all(|i| visits[i * n + i] == 0),
+                "seed {seed}: a ball paired with itself"
+            );
+            let mut near_pairs = 0;
+            for i in 0..n {
+                for j in i + 1..n {
+                    let count = visits[i * n + j];
+                    assert!(
+                        count <= 1,
+                        "seed {seed}: pair ({i}, {j}) visited {count} times"
+                    );
+                    if distance(&balls[i].0, &balls[j].0) < 0.5 * (balls[i].1 + balls[j].1) {
+                        assert_eq!(count, 1, "seed {seed}: near pair ({i}, {j}) missed");
+                        near_pairs += 1;
+                    }
+                }
+            }
+            assert!(near_pairs > n / 2, "seed {seed}: {near_pairs} near pairs");
+            // Around points (not only ball centres) with reaches of every size.
+            for _ in 0..200 {
+                let c: [f64; 3] = std::array::from_fn(|k| rng.gen::<f64>() * len[k]);
+                let d = 0.1 * 40f64.powf(rng.gen::<f64>());
+                let mut count = vec![0u32; n];
+                levels.for_each_near(&c, d, &mut seen, |j| count[j] += 1);
+                for (j, (cj, dj)) in balls.iter().enumerate() {
+                    assert!(
+                        count[j] <= 1,
+                        "seed {seed}: ball {j} visited {} times",
+                        count[j]
+                    );
+                    if distance(&c, cj) < 0.5 * (d + dj) {
+                        assert_eq!(count[j], 1, "seed {seed}: ball {j} near {c:?} missed");
+                    }
+                }
+            }
         }
     }
 

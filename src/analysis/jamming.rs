@@ -78,12 +78,13 @@
 //!   curvature, which decide jamming of hypostatic ellipsoid packings): it is skipped.
 //! - Q6 uses the centre–centre bonds shorter than 1.2 times the sum of the bounding radii.
 
-use super::CellGrid;
-use crate::io::export::periodic_axes;
+use super::separation;
+use crate::io::export::{container_bounds, periodic_axes};
 use crate::io::packing::{ContainerRecord, Packing};
 use crate::io::record::Body as Checked;
-use crate::verify::contact_scale;
+use crate::verify::{contact_scale, PairLevels};
 use rand::{Rng, SeedableRng};
+use rayon::prelude::*;
 
 /// The cut-offs of the plateau table: `10⁻¹⁴ … 10⁻⁴`.
 pub const PLATEAU_CUTOFFS: [f64; 11] = [
@@ -378,50 +379,73 @@ fn bodies_of(packing: &Packing) -> Result<Vec<Body>, JammingError> {
 }
 
 /// The contacts with relative gap below `reach` (pairs and walls), and the unit vectors of
-/// the bonds of Q6. Pairs come from a uniform grid of cells at least `1.2·2·r_max` wide, its
-/// own search (independent of the kernel's cell grid and lists): every pair closer than
-/// `1.2·(r_i + r_j)` (bounding radii) lies in neighbouring cells.
+/// the bonds of Q6. Pairs come from levels of cells ([`PairLevels`], the independent
+/// check's search, not the kernel's grid and lists) with reach diameters `2·f·r` (bounding
+/// radii, `f = max(1.2, 1 + reach)`): every pair closer than `f·(r_i + r_j)` is visited
+/// once, at a cost per particle that does not grow with the size ratio. Chunks of particles
+/// run on all threads and are joined in order: the result is that of one thread.
 fn near_pairs(packing: &Packing, bodies: &[Body], reach: f64) -> (Vec<Contact>, Vec<[f64; 3]>) {
-    let r_max = bodies.iter().map(|s| s.radius).fold(0.0, f64::max);
-    let width = 2.0 * BOND_REACH.max(1.0 + reach) * r_max;
-    let centers: Vec<[f64; 3]> = bodies.iter().map(|b| b.center).collect();
-    let grid = CellGrid::new(&packing.container, &centers, width);
-    let mut contacts = Vec::new();
-    let mut bonds = Vec::new();
-    for (i, bi) in bodies.iter().enumerate() {
-        let (ci, ri) = (bi.center, bi.radius);
-        grid.for_each_near(&ci, |j| {
-            if j as usize <= i {
-                return;
-            }
-            let bj = &bodies[j as usize];
-            let (cj, rj) = (bj.center, bj.radius);
-            let d = grid.separation(&ci, &cj);
-            let dist = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-            let sum = ri + rj;
-            let u = d.map(|x| x / dist);
-            if dist < BOND_REACH * sum {
-                bonds.push(u);
-            }
-            // Spheres: the exact relative gap. With an ellipsoid it is a lower bound of the
-            // scale factor's gap (bounding spheres), refined below.
-            let mut gap = dist / sum - 1.0;
-            if gap < reach && (bi.shape.is_some() || bj.shape.is_some()) {
-                let sphere = |r: f64| [[r * r, 0.0, 0.0], [0.0, r * r, 0.0], [0.0, 0.0, r * r]];
-                let mi = bi.shape.unwrap_or_else(|| sphere(ri));
-                let mj = bj.shape.unwrap_or_else(|| sphere(rj));
-                gap = contact_scale(&mi, &mj, &d) - 1.0;
-            }
-            if gap < reach {
-                contacts.push(Contact {
-                    i: i as u32,
-                    j: Some(j),
-                    normal: u,
-                    gap,
+    let factor = BOND_REACH.max(1.0 + reach);
+    let (lo, hi) = container_bounds(&packing.container);
+    let len: [f64; 3] = std::array::from_fn(|k| hi[k] - lo[k]);
+    let periodic = periodic_axes(&packing.container);
+    let pairs = PairLevels::new(
+        lo,
+        len,
+        periodic,
+        bodies.len(),
+        |i| bodies[i].center,
+        |i| 2.0 * factor * bodies[i].radius,
+    );
+    let chunk = (bodies.len() / (8 * rayon::current_num_threads())).clamp(1, 1 << 16);
+    let starts: Vec<usize> = (0..bodies.len()).step_by(chunk).collect();
+    let parts: Vec<(Vec<Contact>, Vec<[f64; 3]>)> = starts
+        .into_par_iter()
+        .map(|start| {
+            let mut contacts = Vec::new();
+            let mut bonds = Vec::new();
+            let mut seen = Vec::with_capacity(27);
+            for (i, bi) in bodies.iter().enumerate().skip(start).take(chunk) {
+                let (ci, ri) = (bi.center, bi.radius);
+                pairs.for_each_pair_of(i, &ci, &mut seen, |j| {
+                    let bj = &bodies[j];
+                    let (cj, rj) = (bj.center, bj.radius);
+                    let d = separation(&len, &periodic, &ci, &cj);
+                    let dist = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                    let sum = ri + rj;
+                    let u = d.map(|x| x / dist);
+                    if dist < BOND_REACH * sum {
+                        bonds.push(u);
+                    }
+                    // Spheres: the exact relative gap. With an ellipsoid it is a lower bound
+                    // of the scale factor's gap (bounding spheres), refined below.
+                    let mut gap = dist / sum - 1.0;
+                    if gap < reach && (bi.shape.is_some() || bj.shape.is_some()) {
+                        let sphere =
+                            |r: f64| [[r * r, 0.0, 0.0], [0.0, r * r, 0.0], [0.0, 0.0, r * r]];
+                        let mi = bi.shape.unwrap_or_else(|| sphere(ri));
+                        let mj = bj.shape.unwrap_or_else(|| sphere(rj));
+                        gap = contact_scale(&mi, &mj, &d) - 1.0;
+                    }
+                    if gap < reach {
+                        contacts.push(Contact {
+                            i: i as u32,
+                            j: Some(j as u32),
+                            normal: u,
+                            gap,
+                        });
+                    }
                 });
+                walls_of(packing, i, bi, reach, &mut contacts);
             }
-        });
-        walls_of(packing, i, bi, reach, &mut contacts);
+            (contacts, bonds)
+        })
+        .collect();
+    let mut contacts = Vec::with_capacity(parts.iter().map(|p| p.0.len()).sum());
+    let mut bonds = Vec::with_capacity(parts.iter().map(|p| p.1.len()).sum());
+    for (c, b) in parts {
+        contacts.extend(c);
+        bonds.extend(b);
     }
     (contacts, bonds)
 }

@@ -169,111 +169,22 @@ pub fn size_classes(packing: &Packing, bins: usize) -> (Vec<SizeBin>, Vec<usize>
     (out, class)
 }
 
-/// A uniform grid of cells over a container's bounding box for pair searches: every pair of
-/// centres closer than the `width` it was built with lies in neighbouring cells (periodic
-/// axes wrap). Cells are at least `width` wide and at most about four per particle.
-pub(crate) struct CellGrid {
-    lo: [f64; 3],
-    len: [f64; 3],
-    periodic: [bool; 3],
-    cells: [usize; 3],
-    /// Particles of cell `c` are `sorted[start[c]..start[c + 1]]`.
-    start: Vec<usize>,
-    sorted: Vec<u32>,
-}
-
-impl CellGrid {
-    /// The grid of `centers` in `container` with cells at least `width` wide.
-    pub(crate) fn new(container: &ContainerRecord, centers: &[[f64; 3]], width: f64) -> Self {
-        let (lo, hi) = container_bounds(container);
-        let periodic = periodic_axes(container);
-        let len: [f64; 3] = std::array::from_fn(|k| hi[k] - lo[k]);
-        let mut cells: [usize; 3] =
-            std::array::from_fn(|k| ((len[k] / width).floor() as usize).clamp(1, 1 << 20));
-        while cells.iter().product::<usize>() > 4 * centers.len() + 64 {
-            cells = cells.map(|c| (c / 2).max(1));
+/// `cj − ci` in a box of edges `len`, wrapped to the nearest image along `periodic` axes.
+pub(crate) fn separation(
+    len: &[f64; 3],
+    periodic: &[bool; 3],
+    ci: &[f64; 3],
+    cj: &[f64; 3],
+) -> [f64; 3] {
+    std::array::from_fn(|a| {
+        let d = cj[a] - ci[a];
+        // Near pairs rarely straddle a face: the rounding (a libm call) only then.
+        if periodic[a] && d.abs() > 0.5 * len[a] {
+            d - len[a] * (d / len[a]).round()
+        } else {
+            d
         }
-        let mut grid = Self {
-            lo,
-            len,
-            periodic,
-            cells,
-            start: vec![0; cells.iter().product::<usize>() + 1],
-            sorted: vec![0; centers.len()],
-        };
-        for c in centers {
-            let k = grid.linear(grid.key(c));
-            grid.start[k + 1] += 1;
-        }
-        for c in 1..grid.start.len() {
-            grid.start[c] += grid.start[c - 1];
-        }
-        let mut fill = grid.start.clone();
-        for (i, c) in centers.iter().enumerate() {
-            let k = grid.linear(grid.key(c));
-            grid.sorted[fill[k]] = i as u32;
-            fill[k] += 1;
-        }
-        grid
-    }
-
-    fn key(&self, c: &[f64; 3]) -> [usize; 3] {
-        std::array::from_fn(|k| {
-            let x = ((c[k] - self.lo[k]) / self.len[k] * self.cells[k] as f64).floor();
-            (x.max(0.0) as usize).min(self.cells[k] - 1)
-        })
-    }
-
-    fn linear(&self, k: [usize; 3]) -> usize {
-        (k[0] * self.cells[1] + k[1]) * self.cells[2] + k[2]
-    }
-
-    /// Per axis, the distinct neighbouring cell coordinates of cell coordinate `x`.
-    fn around(&self, k: usize, x: usize) -> Vec<usize> {
-        let n = self.cells[k] as i64;
-        let mut out: Vec<usize> = (-1..=1)
-            .map(|o| x as i64 + o)
-            .filter_map(|y| {
-                if self.periodic[k] {
-                    Some(y.rem_euclid(n) as usize)
-                } else {
-                    (0..n).contains(&y).then_some(y as usize)
-                }
-            })
-            .collect();
-        out.sort_unstable();
-        out.dedup();
-        out
-    }
-
-    /// Calls `f` with every particle in the cells around (and including) the cell of `c`,
-    /// each once.
-    pub(crate) fn for_each_near(&self, c: &[f64; 3], mut f: impl FnMut(u32)) {
-        let k = self.key(c);
-        for x in self.around(0, k[0]) {
-            for y in self.around(1, k[1]) {
-                for z in self.around(2, k[2]) {
-                    let cell = self.linear([x, y, z]);
-                    for &j in &self.sorted[self.start[cell]..self.start[cell + 1]] {
-                        f(j);
-                    }
-                }
-            }
-        }
-    }
-
-    /// `cj − ci`, wrapped to the nearest image along periodic axes.
-    pub(crate) fn separation(&self, ci: &[f64; 3], cj: &[f64; 3]) -> [f64; 3] {
-        std::array::from_fn(|a| {
-            let d = cj[a] - ci[a];
-            // Near pairs rarely straddle a face: the rounding (a libm call) only then.
-            if self.periodic[a] && d.abs() > 0.5 * self.len[a] {
-                d - self.len[a] * (d / self.len[a]).round()
-            } else {
-                d
-            }
-        })
-    }
+    })
 }
 
 /// The in-plane axes `(horizontal, vertical)` of a section normal to axis `axis` (0 = x,

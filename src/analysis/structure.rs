@@ -32,10 +32,11 @@
 //!   intersections ([`sphere_cylinder_volume`]).
 
 use super::jamming::JammingReport;
-use super::{size_classes, CellGrid};
+use super::{separation, size_classes};
 use crate::io::export::{container_bounds, packing_fraction, periodic_axes};
 use crate::io::packing::{ContainerRecord, Packing, ParticleRecord};
 use crate::io::record::SphereRecord;
+use crate::verify::PairLevels;
 use std::f64::consts::PI;
 
 /// Most reference particles of g(r) (see the module docs).
@@ -337,7 +338,12 @@ pub fn radial_distribution(
     let others = (n - 1) as f64;
     let mut weight = 0.0; // Σ_i ρ ⟨(r_i + r_j)³⟩_{j≠i}
     let mut counts = vec![0u64; bins_used];
-    let grid = CellGrid::new(&packing.container, &centers, reach);
+    // Pairs within the range of `σ = r_i + r_j`, through levels of cells by size (a pair
+    // search at the largest diameter would be quadratic at concrete size ratios).
+    let len: [f64; 3] = std::array::from_fn(|k| hi[k] - lo[k]);
+    let stretch = 2.0 * range_used * (1.0 + 1e-6);
+    let grid = PairLevels::new(lo, len, periodic, n, |i| centers[i], |i| stretch * radii[i]);
+    let mut seen = Vec::with_capacity(27);
     let mut is_reference = vec![false; n];
     for &i in &references {
         is_reference[i] = true;
@@ -351,15 +357,14 @@ pub fn radial_distribution(
             + (s3 - ri.powi(3));
         weight += density * cubes / others;
         let ci = centers[i];
-        grid.for_each_near(&ci, |j| {
-            let j = j as usize;
+        grid.for_each_near(&ci, stretch * ri, &mut seen, |j| {
             // A pair of references is counted once for both (at the smaller index).
             let times = match is_reference[j] {
                 true if j <= i => return,
                 true => 2,
                 false => 1,
             };
-            let d = grid.separation(&ci, &centers[j]);
+            let d = separation(&len, &periodic, &ci, &centers[j]);
             let sigma = ri + radii[j];
             let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
             // Beyond the range with room for the edge slack: no bin, no square root.
