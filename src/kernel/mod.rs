@@ -675,7 +675,9 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// 3. the few contacts found are sorted (earliest first, the first neighbour on ties) and
     ///    the earliest [`LOCAL_CAPACITY`] go into the list — the events that pushing every
     ///    prediction in neighbour order would keep, up to the order of times that round to
-    ///    the same event time — reading a partner's counter only for those.
+    ///    the same event time — reading a partner's counter only for those. A list longer
+    ///    than a block (a large grain among small ones) keeps only the earliest after each
+    ///    block, and the later blocks screen against the latest of them.
     ///
     /// The caller has asked for the partners' states first ([`Self::prefetch_partners`]).
     #[inline]
@@ -743,6 +745,20 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             (pj, dr, vel_i - pj.vel, pj.spin_at(t), horizon_with(j))
         };
         let mut count = 0;
+        // Only the earliest `LOCAL_CAPACITY` contacts are kept. Once a block that is not the
+        // last has found more, the later of them are dropped and the rest of the pass looks
+        // no further than the latest kept (`cap`, a horizon for every pair): a grain with
+        // hundreds of small neighbours (concrete, size ratio 32) then computes a few contact
+        // times instead of hundreds and sorts a few. The kept events are those the whole
+        // pass would keep: every contact among them is at or before `cap`, whose value only
+        // falls, and ties go to the earlier neighbour as before (a later block holds later
+        // neighbours). The list is truncated exactly when the whole pass would find more
+        // than the capacity. Shapes without a screen compute every time with the pair's own
+        // horizon (a shorter one could move an iterative root in its last bits).
+        let mut cap = f64::INFINITY;
+        let mut dropped = false;
+        let earliest_first =
+            |x: &(f64, u32), y: &(f64, u32)| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1));
         // Most passes are over lists inside the box, which need no minimum image (the more
         // so the larger the box).
         let wraps = !self.lists.pairs_free_of_images(i);
@@ -778,7 +794,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                     let dv = lanes3(&(vel_i - pj[0].vel), &(vel_i - pj[1].vel));
                     (dr, dv, pj.map(|p| p.spin_at(t)))
                 };
-                let horizon = Lanes::new(j.map(horizon_with));
+                let horizon = Lanes::new(j.map(|j| horizon_with(j).min(cap)));
                 let (pass, handed_on) = S::Screened::may_collide(
                     &shape_i,
                     [&pj[0].shape, &pj[1].shape],
@@ -806,16 +822,26 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                     let (pj, dr, dv, spin_j, horizon) = pair(entry);
                     S::collision_time(&shape_i, &pj.shape, &spin_i, &spin_j, &dr, &dv, t, horizon)
                 };
-                let tau = screened[k / 2].contact_time(k % 2, horizon_with(j), unscreened);
+                let tau = screened[k / 2].contact_time(k % 2, horizon_with(j).min(cap), unscreened);
                 // Kept by moving the end past it, not by a branch.
                 found[count] = (tau, (block * SCREEN_BLOCK + k) as u32);
                 count += usize::from((tau < f64::INFINITY) & !skip(j));
             }
+            // Not after the last block, where the sort below does it (lists of equal
+            // spheres fill one block).
+            let more = neighbours.len() > (block + 1) * SCREEN_BLOCK;
+            if more && count > LOCAL_CAPACITY {
+                found[..count].select_nth_unstable_by(LOCAL_CAPACITY - 1, earliest_first);
+                count = LOCAL_CAPACITY;
+                cap = found[LOCAL_CAPACITY - 1].0;
+                dropped = true;
+            }
         }
+        let truncated = dropped || count > LOCAL_CAPACITY;
         let found_now = &mut found[..count];
-        if count > LOCAL_CAPACITY {
+        if truncated {
             // Earliest first, the first neighbour on ties (as pushes in order would keep).
-            found_now.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+            found_now.sort_unstable_by(earliest_first);
         }
         let mut list = LocalList::default();
         for &(tau, k) in found_now.iter().take(LOCAL_CAPACITY) {
@@ -828,7 +854,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 },
             ));
         }
-        if count > LOCAL_CAPACITY {
+        if truncated {
             list.mark_truncated();
         }
         self.local.set(i, list);
@@ -1319,6 +1345,123 @@ mod tests {
             listed += p.len();
         }
         assert!(listed > 20, "only {listed} collisions predicted");
+    }
+
+    /// A large sphere among small ones lists more neighbours than a block of the prediction
+    /// pass, so the pass keeps the earliest contacts after each block and screens the later
+    /// blocks against them. Its local list must still hold the earliest `LOCAL_CAPACITY`
+    /// contacts of all its neighbours (the first neighbour on ties), truncated exactly when
+    /// there are more: checked against contact times solved here in closed form,
+    /// `|dr + dv·τ| = σ + ġ·τ` (spheres growing at constant rates), over the barrier
+    /// interval.
+    #[test]
+    fn a_large_sphere_keeps_its_earliest_contacts_of_every_block() {
+        // Seeds enough that the earliest contacts lie in the first block for some and in later
+        // blocks for others.
+        for seed in 0..12 {
+            a_large_sphere_among_small_ones(seed);
+        }
+    }
+
+    fn a_large_sphere_among_small_ones(seed: u64) {
+        use super::{Edmd, EventKind, KernelConfig, Partners, LOCAL_CAPACITY, SCREEN_BLOCK};
+        use crate::boundary::PeriodicBox;
+        use crate::protocol::rsa::rsa_spheres;
+        use crate::queue::CalendarQueue;
+        use crate::shape::{Sphere, Vec3};
+        use rand::SeedableRng;
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);
+        let edge = 14.0;
+        let boundary = PeriodicBox {
+            min: Vec3::zeros(),
+            len: Vec3::new(edge, edge, edge),
+        };
+        let mut radii = vec![0.25; 6001];
+        radii[0] = 4.0;
+        let centres = rsa_spheres(&boundary, &radii, 0.0, 0.0, 1_000_000, None, &mut rng).unwrap();
+        let shapes = radii
+            .iter()
+            .map(|&r| Sphere { r0: r, g: 0.02 * r })
+            .collect();
+        let config = KernelConfig {
+            neighbour_skin: 0.5,
+            ..KernelConfig::default()
+        };
+        let mut k: Edmd<Sphere, PeriodicBox, CalendarQueue> =
+            Edmd::new(centres, shapes, boundary, config, &mut rng);
+        let interval = 2.0;
+        k.begin_interval(interval);
+        let big = k.ids.iter().position(|&id| id == 0).unwrap();
+        let listed: Vec<u32> = k.lists.list(big).iter().copied().collect();
+        assert!(
+            listed.len() > 2 * SCREEN_BLOCK,
+            "seed {seed}: {} neighbours",
+            listed.len()
+        );
+        k.refresh_list_exit(big);
+        k.predict_pairs(big, Partners::All);
+        // Contact times in closed form: the smaller root of
+        // (dv² − ġ²)τ² + 2(dr·dv − σġ)τ + (dr² − σ²) = 0 in [0, interval].
+        let pb = &k.particles[big];
+        let mut expected: Vec<(f64, usize, usize)> = Vec::new();
+        for (position, &entry) in listed.iter().enumerate() {
+            let j = k.partner_index(entry);
+            let pj = &k.particles[j];
+            let mut dr = pb.pos - pj.pos;
+            for a in 0..3 {
+                dr[a] -= edge * (dr[a] / edge).round();
+            }
+            let dv = pb.vel - pj.vel;
+            let (sigma, growth) = (pb.shape.r0 + pj.shape.r0, pb.shape.g + pj.shape.g);
+            let a = dv.norm_squared() - growth * growth;
+            let b = dr.dot(&dv) - sigma * growth;
+            let c = dr.norm_squared() - sigma * sigma;
+            assert!(c > 0.0, "pair ({big}, {j}) overlaps");
+            let disc = b * b - a * c;
+            if disc < 0.0 {
+                continue;
+            }
+            // The root where the gap closes: (−b − √disc)/a for a > 0, the other form for
+            // a ≤ 0 (growth outruns the relative speed: the gap always closes).
+            let tau = c / (-b + disc.sqrt());
+            if tau > 0.0 && tau <= interval && (b < 0.0 || a < 0.0) {
+                expected.push((tau, position, j));
+            }
+        }
+        assert!(
+            expected.len() > LOCAL_CAPACITY,
+            "{} contacts",
+            expected.len()
+        );
+        expected.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        let mut kept: Vec<(f64, usize)> = k
+            .local
+            .events(big)
+            .iter()
+            .filter_map(|e| match e.kind() {
+                EventKind::Collision { partner, .. } if e.time.is_finite() => {
+                    Some((e.time, k.partner_index(partner)))
+                }
+                _ => None,
+            })
+            .collect();
+        kept.sort_by(|x, y| x.0.total_cmp(&y.0));
+        assert_eq!(kept.len(), LOCAL_CAPACITY);
+        for (&(time, j), &(tau, _, j_expected)) in kept.iter().zip(&expected) {
+            assert_eq!(
+                j, j_expected,
+                "seed {seed}: kept {kept:?}, expected {expected:?}"
+            );
+            assert!(
+                (time - tau).abs() <= 1e-9 * tau,
+                "time {time}, expected {tau}"
+            );
+        }
+        let (_, truncated) = k.local.arrays_mut();
+        assert!(
+            truncated[big],
+            "more contacts than kept: the list is truncated"
+        );
     }
 
     /// A sphere's record is one aligned cache line: a partner costs one line to load.
