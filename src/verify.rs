@@ -1,10 +1,10 @@
 //! Independent verification of a packing: overlap, gap and containment.
 //!
-//! One module on purpose (about 1 350 lines with its tests): its worth is its independence
+//! One module on purpose (about 1 450 lines with its tests): its worth is its independence
 //! from the kernel, so the pair tests, cell levels, distances and report stay here, shared
 //! with nothing the kernel uses (the analysis, also independent of the kernel, finds its
-//! pairs through the same cell levels, [`PairLevels`]). The bodies it tests are those of the written records
-//! ([`crate::io::record::RecordShape::body`]), never the kernel's shapes.
+//! pairs through the same cell levels, `PairLevels`). The bodies it tests are those of the
+//! written records ([`crate::io::record::RecordShape::body`]), never the kernel's shapes.
 //!
 //! This module shares no code with the kernel's prediction, cell grid or boundaries: it works
 //! on the packing as written ([`Packing`]), finds candidate pairs through its own cell levels
