@@ -1,6 +1,6 @@
 //! Independent verification of a packing: overlap, gap and containment.
 //!
-//! One module on purpose (about 1 450 lines with its tests): its worth is its independence
+//! One module on purpose (about 1 650 lines with its tests): its worth is its independence
 //! from the kernel, so the pair tests, cell levels, distances and report stay here, shared
 //! with nothing the kernel uses (the analysis, also independent of the kernel, finds its
 //! pairs through the same cell levels, `PairLevels`). The bodies it tests are those of the
