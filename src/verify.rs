@@ -782,14 +782,12 @@ impl PairLevel {
         level
     }
 
-    /// Cell coordinate of `x` along axis `k`, not clamped.
-    fn coordinate(&self, k: usize, x: f64) -> i64 {
-        ((x - self.lo[k]) / (self.len[k] / self.ncell[k] as f64)).floor() as i64
-    }
-
     /// Cell coordinates of point `c` (clamped to the box).
     fn key(&self, c: &[f64; 3]) -> [i64; 3] {
-        std::array::from_fn(|k| self.coordinate(k, c[k]).clamp(0, self.ncell[k] - 1))
+        std::array::from_fn(|k| {
+            let x = ((c[k] - self.lo[k]) / (self.len[k] / self.ncell[k] as f64)).floor() as i64;
+            x.clamp(0, self.ncell[k] - 1)
+        })
     }
 
     fn linear(&self, k: &[i64; 3]) -> usize {
@@ -801,26 +799,34 @@ impl PairLevel {
         &self.sorted[self.start[c as usize] as usize..self.start[c as usize + 1] as usize]
     }
 
-    /// The cells that meet the cube of half-width `rho` around point `c` (clamped to the
-    /// box), each once, into `out`. With `rho` up to the cell width: the 3 × 3 × 3 block
-    /// around `c`'s cell, clipped at walls; along a periodic axis a span of `ncell` cells
-    /// or more gives each cell once.
+    /// The cells that meet the cube of half-width `rho` around point `c`, each once, into
+    /// `out`. The block is counted from `c`'s cell ([`Self::key`], clamped to the box), so
+    /// with `rho` up to the cell width it is the 3 × 3 × 3 block around that cell, clipped
+    /// at walls; along a periodic axis a span of `ncell` cells or more gives each cell
+    /// once. The extents are worked out in floating point and compared before any
+    /// conversion, so that no point, reach or box size (huge, tiny, infinite or NaN) can
+    /// make a span overflow: at worst the whole axis is taken.
     fn cells_within(&self, c: &[f64; 3], rho: f64, out: &mut Vec<u32>) {
         out.clear();
         let key = self.key(c);
         let span = |k: usize| -> (i64, i64) {
             let n = self.ncell[k];
-            let centre = key[k];
-            let below = (centre - self.coordinate(k, c[k] - rho)).max(0);
-            let above = (self.coordinate(k, c[k] + rho) - centre).max(0);
+            let width = self.len[k] / n as f64;
+            let x = (c[k] - self.lo[k]) / width;
+            let (fraction, reach) = (x - x.floor(), rho / width);
+            // Cells below and above `c`'s own that the interval `x ± reach` meets.
+            let below = (reach - fraction).ceil().max(0.0);
+            let above = (fraction + reach).floor().max(0.0);
+            // A span of the whole axis or more (or NaN): the whole axis.
+            if !(below + above + 1.0 < n as f64) {
+                return (0, n - 1);
+            }
+            let centre = key[k] as f64;
             if self.periodic[k] {
-                if below + above + 1 >= n {
-                    (0, n - 1)
-                } else {
-                    (centre - below, centre + above)
-                }
+                ((centre - below) as i64, (centre + above) as i64)
             } else {
-                ((centre - below).max(0), (centre + above).min(n - 1))
+                let clip = |v: f64| v.max(0.0).min((n - 1) as f64) as i64;
+                (clip(centre - below), clip(centre + above))
             }
         };
         let (xs, ys, zs) = (span(0), span(1), span(2));
@@ -1565,6 +1571,70 @@ mod tests {
                         assert_eq!(count[j], 1, "seed {seed}: ball {j} near {c:?} missed");
                     }
                 }
+            }
+        }
+    }
+
+    /// Points far outside the box, boxes far smaller than the balls and reaches that are
+    /// infinite or NaN give bounded blocks of cells (a span once overflowed into an endless
+    /// loop), and a ball still finds its partner.
+    #[test]
+    fn pair_levels_stay_bounded_for_extreme_input() {
+        for (len, periodic, centres, diameters) in [
+            (
+                [1e-300; 3],
+                [true; 3],
+                [[1.0; 3], [1.0, 1.0, 1.5]],
+                [1.0, 1.0],
+            ),
+            (
+                [1e-300; 3],
+                [false; 3],
+                [[1.0; 3], [1.0, 1.0, 1.5]],
+                [1.0, 1.0],
+            ),
+            (
+                [10.0; 3],
+                [true, false, true],
+                [[1e300; 3], [-1e300; 3]],
+                [1.0, 1.0],
+            ),
+            (
+                [10.0; 3],
+                [true; 3],
+                [[5.0; 3], [5.0, 5.0, 5.5]],
+                [f64::INFINITY, 1.0],
+            ),
+            (
+                [10.0; 3],
+                [false; 3],
+                [[5.0; 3], [5.0, 5.0, 5.5]],
+                [f64::NAN, 1.0],
+            ),
+        ] {
+            let levels =
+                PairLevels::new([0.0; 3], len, periodic, 2, |i| centres[i], |i| diameters[i]);
+            let cells: usize = levels.levels.iter().map(|l| l.start.len() - 1).sum();
+            let mut seen = Vec::new();
+            let mut partners = 0;
+            for (i, c) in centres.iter().enumerate() {
+                levels.for_each_pair_of(i, c, &mut seen, |_| partners += 1);
+                assert!(
+                    seen.len() <= cells,
+                    "{} cells visited of {cells}",
+                    seen.len()
+                );
+                for d in [1.0, f64::INFINITY, f64::NAN, 1e300] {
+                    levels.for_each_near(c, d, &mut seen, |_| {});
+                    assert!(
+                        seen.len() <= cells,
+                        "{} cells visited of {cells}",
+                        seen.len()
+                    );
+                }
+            }
+            if diameters.iter().all(|d| d.is_finite()) && centres[0][0] == 1.0 {
+                assert_eq!(partners, 1, "the two balls of {len:?} are found as a pair");
             }
         }
     }
