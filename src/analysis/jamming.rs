@@ -274,8 +274,9 @@ pub fn jamming_report(
     // cut-off (the default is one of them), the LP test and the rattler flags.
     let (alive_at_cutoff, backbone_at_cutoff) = backbone(n, &contacts, cutoff, &sphere);
     let at_cutoff = row_of(cutoff, &alive_at_cutoff, &backbone_at_cutoff);
+    // The rows are independent: one per task on the thread pool, collected in order.
     let plateau = PLATEAU_CUTOFFS
-        .iter()
+        .par_iter()
         .map(|&h| {
             if h == cutoff {
                 at_cutoff.clone()
@@ -602,11 +603,19 @@ fn in_closed_hemisphere(d: &[[f64; 3]]) -> bool {
                 continue;
             }
             independent = true;
-            let dots = d
-                .iter()
-                .map(|x| (w[0] * x[0] + w[1] * x[1] + w[2] * x[2]) / norm);
-            let (low, high) = dots.fold((0.0_f64, 0.0_f64), |(lo, hi), t| (lo.min(t), hi.max(t)));
-            if high <= HEMISPHERE_TOLERANCE || low >= -HEMISPHERE_TOLERANCE {
+            // The candidate fails once directions on both sides of its plane are seen: for a
+            // locally jammed particle after a few, so a test costs about k² rather than k³
+            // dot products (k contacts; a large grain among small ones has hundreds).
+            let (mut above, mut below) = (false, false);
+            for x in d {
+                let t = (w[0] * x[0] + w[1] * x[1] + w[2] * x[2]) / norm;
+                above |= t > HEMISPHERE_TOLERANCE;
+                below |= t < -HEMISPHERE_TOLERANCE;
+                if above && below {
+                    break;
+                }
+            }
+            if !(above && below) {
                 return true;
             }
         }
@@ -614,37 +623,56 @@ fn in_closed_hemisphere(d: &[[f64; 3]]) -> bool {
     !independent
 }
 
-/// Global Q6 of the bonds `u` through the moment tensors of orders 2, 4 and 6.
+/// Global Q6 of the bonds `u` through the moment tensors of orders 2, 4 and 6. A moment
+/// tensor `M_k = Σ_a u_a^{⊗k}` is symmetric: its entry for an index tuple with `p` x's, `q`
+/// y's and `r` z's is `S_pqr = Σ_a x_a^p y_a^q z_a^r`, shared by `k!/(p! q! r!)` tuples, so
+/// `‖M_k‖² = Σ_{p+q+r=k} k!/(p! q! r!)·S_pqr²` from 6, 15 and 28 sums per bond instead of
+/// the 9, 81 and 729 entries of the full tensors.
 fn q6(bonds: &[[f64; 3]]) -> f64 {
     if bonds.is_empty() {
         return f64::NAN;
     }
-    // ‖M_k‖² = Σ over index tuples of (Σ_a Π u_a[index])², accumulated in full tensors.
-    let mut m2 = [0.0; 9];
-    let mut m4 = [0.0; 81];
-    let mut m6 = vec![0.0; 729];
-    for u in bonds {
-        let mut t2 = [0.0; 9];
-        for a in 0..3 {
-            for b in 0..3 {
-                t2[3 * a + b] = u[a] * u[b];
+    let factorial = |n: usize| (1..=n).product::<usize>() as f64;
+    // (p, q, r, k!/(p! q! r!)) for p + q + r = k.
+    let monomials = |k: usize| -> Vec<(usize, usize, usize, f64)> {
+        let mut out = Vec::new();
+        for p in 0..=k {
+            for q in 0..=k - p {
+                let r = k - p - q;
+                out.push((
+                    p,
+                    q,
+                    r,
+                    factorial(k) / (factorial(p) * factorial(q) * factorial(r)),
+                ));
             }
         }
-        for (x, t) in m2.iter_mut().zip(&t2) {
-            *x += t;
+        out
+    };
+    let orders = [monomials(2), monomials(4), monomials(6)];
+    let mut sums: [Vec<f64>; 3] = std::array::from_fn(|o| vec![0.0; orders[o].len()]);
+    for u in bonds {
+        let mut powers = [[1.0; 7]; 3];
+        for (axis, row) in powers.iter_mut().enumerate() {
+            for e in 1..7 {
+                row[e] = row[e - 1] * u[axis];
+            }
         }
-        for p in 0..9 {
-            for q in 0..9 {
-                m4[9 * p + q] += t2[p] * t2[q];
-                for r in 0..9 {
-                    m6[81 * p + 9 * q + r] += t2[p] * t2[q] * t2[r];
-                }
+        for (terms, sum) in orders.iter().zip(sums.iter_mut()) {
+            for (&(p, q, r, _), s) in terms.iter().zip(sum.iter_mut()) {
+                *s += powers[0][p] * powers[1][q] * powers[2][r];
             }
         }
     }
-    let norm = |m: &[f64]| m.iter().map(|x| x * x).sum::<f64>();
+    let norm = |o: usize| -> f64 {
+        orders[o]
+            .iter()
+            .zip(&sums[o])
+            .map(|(&(_, _, _, w), s)| w * s * s)
+            .sum()
+    };
     let nb = bonds.len() as f64;
-    let sum_p6 = (231.0 * norm(&m6) - 315.0 * norm(&m4) + 105.0 * norm(&m2) - 5.0 * nb * nb) / 16.0;
+    let sum_p6 = (231.0 * norm(2) - 315.0 * norm(1) + 105.0 * norm(0) - 5.0 * nb * nb) / 16.0;
     (sum_p6.max(0.0)).sqrt() / nb
 }
 

@@ -37,10 +37,14 @@ use crate::io::export::{container_bounds, packing_fraction, periodic_axes};
 use crate::io::packing::{ContainerRecord, Packing, ParticleRecord};
 use crate::io::record::SphereRecord;
 use crate::verify::PairLevels;
+use rayon::prelude::*;
 use std::f64::consts::PI;
 
 /// Most reference particles of g(r) (see the module docs).
 pub const MAX_GR_REFERENCES: usize = 100_000;
+
+/// References per task of the g(r) pair count on the thread pool.
+const REFERENCES_PER_TASK: usize = 4096;
 
 /// Default number of g(r) bins: width 0.02 over `s ∈ [0, 3)`.
 pub const DEFAULT_GR_BINS: usize = 150;
@@ -336,47 +340,66 @@ pub fn radial_distribution(
     let moment = |k: i32| radii.iter().map(|r| r.powi(k)).sum::<f64>();
     let (s1, s2, s3) = (moment(1), moment(2), moment(3));
     let others = (n - 1) as f64;
-    let mut weight = 0.0; // Σ_i ρ ⟨(r_i + r_j)³⟩_{j≠i}
-    let mut counts = vec![0u64; bins_used];
+    // Σ_i ρ ⟨(r_i + r_j)³⟩_{j≠i}
+    let weight: f64 = references
+        .iter()
+        .map(|&i| {
+            let ri = radii[i];
+            let cubes = others * ri.powi(3)
+                + 3.0 * ri * ri * (s1 - ri)
+                + 3.0 * ri * (s2 - ri * ri)
+                + (s3 - ri.powi(3));
+            density * cubes / others
+        })
+        .sum();
     // Pairs within the range of `σ = r_i + r_j`, through levels of cells by size (a pair
     // search at the largest diameter would be quadratic at concrete size ratios).
     let len: [f64; 3] = std::array::from_fn(|k| hi[k] - lo[k]);
     let stretch = 2.0 * range_used * (1.0 + 1e-6);
     let grid = PairLevels::new(lo, len, periodic, n, |i| centers[i], |i| stretch * radii[i]);
-    let mut seen = Vec::with_capacity(27);
     let mut is_reference = vec![false; n];
     for &i in &references {
         is_reference[i] = true;
     }
     let reach2 = (range_used * (1.0 + 1e-6)).powi(2);
-    for &i in &references {
-        let ri = radii[i];
-        let cubes = others * ri.powi(3)
-            + 3.0 * ri * ri * (s1 - ri)
-            + 3.0 * ri * (s2 - ri * ri)
-            + (s3 - ri.powi(3));
-        weight += density * cubes / others;
-        let ci = centers[i];
-        grid.for_each_near(&ci, stretch * ri, &mut seen, |j| {
-            // A pair of references is counted once for both (at the smaller index).
-            let times = match is_reference[j] {
-                true if j <= i => return,
-                true => 2,
-                false => 1,
-            };
-            let d = separation(&len, &periodic, &ci, &centers[j]);
-            let sigma = ri + radii[j];
-            let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-            // Beyond the range with room for the edge slack: no bin, no square root.
-            if d2 > reach2 * sigma * sigma {
-                return;
+    // The references in chunks on all threads; the counts are integers, so their sum is
+    // the same in any order and on any number of threads.
+    let counts = references
+        .par_chunks(REFERENCES_PER_TASK)
+        .map(|chunk| {
+            let mut counts = vec![0u64; bins_used];
+            let mut seen = Vec::with_capacity(27);
+            for &i in chunk {
+                let (ci, ri) = (centers[i], radii[i]);
+                grid.for_each_near(&ci, stretch * ri, &mut seen, |j| {
+                    // A pair of references is counted once for both (at the smaller index).
+                    let times = match is_reference[j] {
+                        true if j <= i => return,
+                        true => 2,
+                        false => 1,
+                    };
+                    let d = separation(&len, &periodic, &ci, &centers[j]);
+                    let sigma = ri + radii[j];
+                    let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+                    // Beyond the range with room for the edge slack: no bin, no square root.
+                    if d2 > reach2 * sigma * sigma {
+                        return;
+                    }
+                    let k = (d2.sqrt() / sigma / width + EDGE_SLACK).floor();
+                    if k < bins_used as f64 {
+                        counts[k as usize] += times;
+                    }
+                });
             }
-            let k = (d2.sqrt() / sigma / width + EDGE_SLACK).floor();
-            if k < bins_used as f64 {
-                counts[k as usize] += times;
-            }
-        });
-    }
+            counts
+        })
+        .reduce(
+            || vec![0u64; bins_used],
+            |mut a, b| {
+                a.iter_mut().zip(&b).for_each(|(x, y)| *x += y);
+                a
+            },
+        );
     let centres: Vec<f64> = (0..bins_used).map(|k| (k as f64 + 0.5) * width).collect();
     let g: Vec<f64> = (0..bins_used)
         .map(|k| {
