@@ -100,6 +100,10 @@ const BOND_REACH: f64 = 1.2;
 /// Q6 of a perfect face-centred cubic crystal (12 nearest neighbours).
 pub const Q6_FCC: f64 = 0.574_52;
 
+/// Particles per task of the contact search on the thread pool (a fixed size, so that the
+/// report does not depend on the number of threads).
+const PARTICLES_PER_TASK: usize = 4096;
+
 /// Rattlers have fewer contacts than this (see the module docs).
 const RATTLER_BELOW: u32 = 4;
 
@@ -239,7 +243,7 @@ pub fn jamming_report(
     let periodic = periodic_axes(&packing.container);
     let trivial = periodic.iter().filter(|&&p| p).count();
     let widest = PLATEAU_CUTOFFS[PLATEAU_CUTOFFS.len() - 1].max(cutoff);
-    let (contacts, bond_normals) = near_pairs(packing, &bodies, widest);
+    let (contacts, bond_moments) = near_pairs(packing, &bodies, widest);
     // Non-trivial degrees of freedom of the particles kept.
     let freedoms_of = |alive: &[bool]| -> i64 {
         let kept: i64 = bodies
@@ -310,7 +314,7 @@ pub fn jamming_report(
             )
         }
     });
-    let bonds = bond_normals.len();
+    let bonds = bond_moments.bonds;
     let freedoms_per_particle =
         bodies.iter().map(|b| f64::from(b.freedoms)).sum::<f64>() / n.max(1) as f64;
     Ok(JammingReport {
@@ -322,7 +326,7 @@ pub fn jamming_report(
         at_cutoff,
         plateau,
         trivial_motions: trivial,
-        q6: q6(&bond_normals),
+        q6: bond_moments.q6(),
         q6_random: 1.0 / (bonds.max(1) as f64).sqrt(),
         bonds,
         lp,
@@ -379,13 +383,13 @@ fn bodies_of(packing: &Packing) -> Result<Vec<Body>, JammingError> {
     Ok(bodies)
 }
 
-/// The contacts with relative gap below `reach` (pairs and walls), and the unit vectors of
-/// the bonds of Q6. Pairs come from levels of cells ([`PairLevels`], the independent
-/// check's search, not the kernel's grid and lists) with reach diameters `2·f·r` (bounding
-/// radii, `f = max(1.2, 1 + reach)`): every pair closer than `f·(r_i + r_j)` is visited
-/// once, at a cost per particle that does not grow with the size ratio. Chunks of particles
-/// run on all threads and are joined in order: the result is that of one thread.
-fn near_pairs(packing: &Packing, bodies: &[Body], reach: f64) -> (Vec<Contact>, Vec<[f64; 3]>) {
+/// The contacts with relative gap below `reach` (pairs and walls), and the moments of the
+/// bonds of Q6. Pairs come from levels of cells ([`PairLevels`], the independent check's
+/// search, not the kernel's grid and lists) with reach diameters `2·f·r` (bounding radii,
+/// `f = max(1.2, 1 + reach)`): every pair closer than `f·(r_i + r_j)` is visited once, at a
+/// cost per particle that does not grow with the size ratio. Chunks of particles run on all
+/// threads and are joined in order.
+fn near_pairs(packing: &Packing, bodies: &[Body], reach: f64) -> (Vec<Contact>, BondMoments) {
     let factor = BOND_REACH.max(1.0 + reach);
     let (lo, hi) = container_bounds(&packing.container);
     let len: [f64; 3] = std::array::from_fn(|k| hi[k] - lo[k]);
@@ -398,13 +402,15 @@ fn near_pairs(packing: &Packing, bodies: &[Body], reach: f64) -> (Vec<Contact>, 
         |i| bodies[i].center,
         |i| 2.0 * factor * bodies[i].radius,
     );
-    let chunk = (bodies.len() / (8 * rayon::current_num_threads())).clamp(1, 1 << 16);
+    // Chunks of a fixed size, joined in order: the contacts, and the moments' sums (added
+    // chunk by chunk), are the same on any number of threads.
+    let chunk = PARTICLES_PER_TASK;
     let starts: Vec<usize> = (0..bodies.len()).step_by(chunk).collect();
-    let parts: Vec<(Vec<Contact>, Vec<[f64; 3]>)> = starts
+    let parts: Vec<(Vec<Contact>, BondMoments)> = starts
         .into_par_iter()
         .map(|start| {
             let mut contacts = Vec::new();
-            let mut bonds = Vec::new();
+            let mut bonds = BondMoments::new();
             let mut seen = Vec::with_capacity(27);
             for (i, bi) in bodies.iter().enumerate().skip(start).take(chunk) {
                 let (ci, ri) = (bi.center, bi.radius);
@@ -416,7 +422,7 @@ fn near_pairs(packing: &Packing, bodies: &[Body], reach: f64) -> (Vec<Contact>, 
                     let sum = ri + rj;
                     let u = d.map(|x| x / dist);
                     if dist < BOND_REACH * sum {
-                        bonds.push(u);
+                        bonds.add(&u);
                     }
                     // Spheres: the exact relative gap. With an ellipsoid it is a lower bound
                     // of the scale factor's gap (bounding spheres), refined below.
@@ -443,10 +449,10 @@ fn near_pairs(packing: &Packing, bodies: &[Body], reach: f64) -> (Vec<Contact>, 
         })
         .collect();
     let mut contacts = Vec::with_capacity(parts.iter().map(|p| p.0.len()).sum());
-    let mut bonds = Vec::with_capacity(parts.iter().map(|p| p.1.len()).sum());
+    let mut bonds = BondMoments::new();
     for (c, b) in parts {
         contacts.extend(c);
-        bonds.extend(b);
+        bonds.merge(&b);
     }
     (contacts, bonds)
 }
@@ -623,57 +629,89 @@ fn in_closed_hemisphere(d: &[[f64; 3]]) -> bool {
     !independent
 }
 
-/// Global Q6 of the bonds `u` through the moment tensors of orders 2, 4 and 6. A moment
-/// tensor `M_k = Σ_a u_a^{⊗k}` is symmetric: its entry for an index tuple with `p` x's, `q`
-/// y's and `r` z's is `S_pqr = Σ_a x_a^p y_a^q z_a^r`, shared by `k!/(p! q! r!)` tuples, so
-/// `‖M_k‖² = Σ_{p+q+r=k} k!/(p! q! r!)·S_pqr²` from 6, 15 and 28 sums per bond instead of
-/// the 9, 81 and 729 entries of the full tensors.
-fn q6(bonds: &[[f64; 3]]) -> f64 {
-    if bonds.is_empty() {
-        return f64::NAN;
-    }
+/// The exponents `(p, q, r)`, `p + q + r = k`, of the distinct entries of a symmetric
+/// tensor of order `k = 2, 4, 6` (6, 15 and 28 of them), with their multiplicities
+/// `k!/(p! q! r!)`.
+fn monomials(k: usize) -> Vec<(usize, usize, usize, f64)> {
     let factorial = |n: usize| (1..=n).product::<usize>() as f64;
-    // (p, q, r, k!/(p! q! r!)) for p + q + r = k.
-    let monomials = |k: usize| -> Vec<(usize, usize, usize, f64)> {
-        let mut out = Vec::new();
-        for p in 0..=k {
-            for q in 0..=k - p {
-                let r = k - p - q;
-                out.push((
-                    p,
-                    q,
-                    r,
-                    factorial(k) / (factorial(p) * factorial(q) * factorial(r)),
-                ));
-            }
+    let mut out = Vec::new();
+    for p in 0..=k {
+        for q in 0..=k - p {
+            let r = k - p - q;
+            out.push((
+                p,
+                q,
+                r,
+                factorial(k) / (factorial(p) * factorial(q) * factorial(r)),
+            ));
         }
-        out
-    };
-    let orders = [monomials(2), monomials(4), monomials(6)];
-    let mut sums: [Vec<f64>; 3] = std::array::from_fn(|o| vec![0.0; orders[o].len()]);
-    for u in bonds {
+    }
+    out
+}
+
+/// The moment tensors `M_k = Σ_a u_a^{⊗k}` (k = 2, 4, 6) of Q6's bonds `u_a`, kept as their
+/// distinct entries: the entry for an index tuple with `p` x's, `q` y's and `r` z's is
+/// `S_pqr = Σ_a x_a^p y_a^q z_a^r`, shared by `k!/(p! q! r!)` tuples, so
+/// `‖M_k‖² = Σ_{p+q+r=k} k!/(p! q! r!)·S_pqr²`: 49 sums per bond instead of the
+/// 9 + 81 + 729 entries of the full tensors, and no list of bonds.
+#[derive(Clone)]
+struct BondMoments {
+    orders: [Vec<(usize, usize, usize, f64)>; 3],
+    sums: [Vec<f64>; 3],
+    bonds: usize,
+}
+
+impl BondMoments {
+    fn new() -> Self {
+        let orders = [monomials(2), monomials(4), monomials(6)];
+        let sums = std::array::from_fn(|o| vec![0.0; orders[o].len()]);
+        Self {
+            orders,
+            sums,
+            bonds: 0,
+        }
+    }
+
+    /// Adds the bond of unit vector `u`.
+    fn add(&mut self, u: &[f64; 3]) {
         let mut powers = [[1.0; 7]; 3];
         for (axis, row) in powers.iter_mut().enumerate() {
             for e in 1..7 {
                 row[e] = row[e - 1] * u[axis];
             }
         }
-        for (terms, sum) in orders.iter().zip(sums.iter_mut()) {
+        for (terms, sum) in self.orders.iter().zip(self.sums.iter_mut()) {
             for (&(p, q, r, _), s) in terms.iter().zip(sum.iter_mut()) {
                 *s += powers[0][p] * powers[1][q] * powers[2][r];
             }
         }
+        self.bonds += 1;
     }
-    let norm = |o: usize| -> f64 {
-        orders[o]
-            .iter()
-            .zip(&sums[o])
-            .map(|(&(_, _, _, w), s)| w * s * s)
-            .sum()
-    };
-    let nb = bonds.len() as f64;
-    let sum_p6 = (231.0 * norm(2) - 315.0 * norm(1) + 105.0 * norm(0) - 5.0 * nb * nb) / 16.0;
-    (sum_p6.max(0.0)).sqrt() / nb
+
+    /// Adds the bonds of `other`.
+    fn merge(&mut self, other: &Self) {
+        for (mine, theirs) in self.sums.iter_mut().zip(&other.sums) {
+            mine.iter_mut().zip(theirs).for_each(|(x, y)| *x += y);
+        }
+        self.bonds += other.bonds;
+    }
+
+    /// Global Q6 through the addition theorem (module docs); NaN without bonds.
+    fn q6(&self) -> f64 {
+        if self.bonds == 0 {
+            return f64::NAN;
+        }
+        let norm = |o: usize| -> f64 {
+            self.orders[o]
+                .iter()
+                .zip(&self.sums[o])
+                .map(|(&(_, _, _, w), s)| w * s * s)
+                .sum()
+        };
+        let nb = self.bonds as f64;
+        let sum_p6 = (231.0 * norm(2) - 315.0 * norm(1) + 105.0 * norm(0) - 5.0 * nb * nb) / 16.0;
+        (sum_p6.max(0.0)).sqrt() / nb
+    }
 }
 
 impl LpCertificate {
