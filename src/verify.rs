@@ -818,7 +818,8 @@ impl PairLevel {
             let below = (reach - fraction).ceil().max(0.0);
             let above = (fraction + reach).floor().max(0.0);
             // A span of the whole axis or more (or NaN): the whole axis.
-            if !(below + above + 1.0 < n as f64) {
+            let shorter_than_the_axis = below + above + 1.0 < n as f64;
+            if !shorter_than_the_axis {
                 return (0, n - 1);
             }
             let centre = key[k] as f64;
