@@ -85,6 +85,7 @@ use crate::io::record::Body as Checked;
 use crate::verify::{contact_scale, PairLevels};
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
+use std::sync::LazyLock;
 
 /// The cut-offs of the plateau table: `10⁻¹⁴ … 10⁻⁴`.
 pub const PLATEAU_CUTOFFS: [f64; 11] = [
@@ -631,43 +632,40 @@ fn in_closed_hemisphere(d: &[[f64; 3]]) -> bool {
 
 /// The exponents `(p, q, r)`, `p + q + r = k`, of the distinct entries of a symmetric
 /// tensor of order `k = 2, 4, 6` (6, 15 and 28 of them), with their multiplicities
-/// `k!/(p! q! r!)`.
-fn monomials(k: usize) -> Vec<(usize, usize, usize, f64)> {
+/// `k!/(p! q! r!)`: one table for every report.
+static MONOMIALS: LazyLock<[Vec<(usize, usize, usize, f64)>; 3]> = LazyLock::new(|| {
     let factorial = |n: usize| (1..=n).product::<usize>() as f64;
-    let mut out = Vec::new();
-    for p in 0..=k {
-        for q in 0..=k - p {
-            let r = k - p - q;
-            out.push((
-                p,
-                q,
-                r,
-                factorial(k) / (factorial(p) * factorial(q) * factorial(r)),
-            ));
+    [2, 4, 6].map(|k| {
+        let mut out = Vec::new();
+        for p in 0..=k {
+            for q in 0..=k - p {
+                let r = k - p - q;
+                out.push((
+                    p,
+                    q,
+                    r,
+                    factorial(k) / (factorial(p) * factorial(q) * factorial(r)),
+                ));
+            }
         }
-    }
-    out
-}
+        out
+    })
+});
 
 /// The moment tensors `M_k = Σ_a u_a^{⊗k}` (k = 2, 4, 6) of Q6's bonds `u_a`, kept as their
-/// distinct entries: the entry for an index tuple with `p` x's, `q` y's and `r` z's is
-/// `S_pqr = Σ_a x_a^p y_a^q z_a^r`, shared by `k!/(p! q! r!)` tuples, so
+/// distinct entries ([`MONOMIALS`]): the entry for an index tuple with `p` x's, `q` y's and
+/// `r` z's is `S_pqr = Σ_a x_a^p y_a^q z_a^r`, shared by `k!/(p! q! r!)` tuples, so
 /// `‖M_k‖² = Σ_{p+q+r=k} k!/(p! q! r!)·S_pqr²`: 49 sums per bond instead of the
 /// 9 + 81 + 729 entries of the full tensors, and no list of bonds.
-#[derive(Clone)]
 struct BondMoments {
-    orders: [Vec<(usize, usize, usize, f64)>; 3],
     sums: [Vec<f64>; 3],
     bonds: usize,
 }
 
 impl BondMoments {
     fn new() -> Self {
-        let orders = [monomials(2), monomials(4), monomials(6)];
-        let sums = std::array::from_fn(|o| vec![0.0; orders[o].len()]);
         Self {
-            orders,
-            sums,
+            sums: std::array::from_fn(|o| vec![0.0; MONOMIALS[o].len()]),
             bonds: 0,
         }
     }
@@ -680,7 +678,7 @@ impl BondMoments {
                 row[e] = row[e - 1] * u[axis];
             }
         }
-        for (terms, sum) in self.orders.iter().zip(self.sums.iter_mut()) {
+        for (terms, sum) in MONOMIALS.iter().zip(self.sums.iter_mut()) {
             for (&(p, q, r, _), s) in terms.iter().zip(sum.iter_mut()) {
                 *s += powers[0][p] * powers[1][q] * powers[2][r];
             }
@@ -702,7 +700,7 @@ impl BondMoments {
             return f64::NAN;
         }
         let norm = |o: usize| -> f64 {
-            self.orders[o]
+            MONOMIALS[o]
                 .iter()
                 .zip(&self.sums[o])
                 .map(|(&(_, _, _, w), s)| w * s * s)
