@@ -630,10 +630,13 @@ fn in_closed_hemisphere(d: &[[f64; 3]]) -> bool {
     !independent
 }
 
+/// Exponents `(p, q, r)` of `x^p y^q z^r` and the multiplicity of its tensor entry.
+type Monomial = (usize, usize, usize, f64);
+
 /// The exponents `(p, q, r)`, `p + q + r = k`, of the distinct entries of a symmetric
 /// tensor of order `k = 2, 4, 6` (6, 15 and 28 of them), with their multiplicities
 /// `k!/(p! q! r!)`: one table for every report.
-static MONOMIALS: LazyLock<[Vec<(usize, usize, usize, f64)>; 3]> = LazyLock::new(|| {
+static MONOMIALS: LazyLock<[Vec<Monomial>; 3]> = LazyLock::new(|| {
     let factorial = |n: usize| (1..=n).product::<usize>() as f64;
     [2, 4, 6].map(|k| {
         let mut out = Vec::new();
