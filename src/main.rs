@@ -355,7 +355,9 @@ fn run(
                     s.stop_reason,
                     outcome.verification.min_pair_gap_relative.unwrap_or(f64::NAN),
                 );
-                if s.stop_reason == densepack::kernel::StopReason::PressureReached.as_str() {
+                use densepack::kernel::StopReason;
+                let judged = [StopReason::PressureReached, StopReason::CollectivelyJammed];
+                if judged.iter().any(|r| s.stop_reason == r.as_str()) {
                     if let Some(line) = cli::analyse::run_summary(&outcome.packing) {
                         outln!("{line}");
                     }

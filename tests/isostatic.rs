@@ -12,9 +12,8 @@
 //! rate it reaches the pressure goal without a rigid backbone. Grown with a rate that falls
 //! with the pressure and a slow finish (`examples/scenes/mono_periodic_jam_slow.toml`, the
 //! same particles) it comes close to the literature's isostaticity without reaching it
-//! exactly (φ 0.6383, 1.0 % rattlers, backbone Z 5.978, 8 contacts short of the count); the
-//! tolerances below state how far from it that protocol may be. At 10 000 spheres the same
-//! protocol does not assure a backbone (README, "Is it jammed?").
+//! exactly (8 contacts short of the count); its `[jam]` step (sequential linear
+//! programming) then makes it collectively jammed with an exactly isostatic backbone.
 
 use densepack::analysis::jamming::jamming_report;
 use densepack::io::packing::{ContainerRecord, Packing, ParticleRecord};
@@ -144,28 +143,34 @@ fn backbone(n: usize, contacts: &[(usize, usize, [f64; 3])]) -> (usize, usize) {
     (kept, pairs)
 }
 
-#[test]
-fn a_slow_finish_builds_a_rigid_backbone_near_isostatic() {
-    let scene = Scene::from_toml(SLOW_SCENE).expect("the slow scene parses");
-    assert_eq!(scene.particles.count, small_default_scene().particles.count);
-    let outcome = run_scene(&scene, &mut |_, _| {}).expect("the scene runs");
-    let packing = &outcome.packing;
-    assert_eq!(packing.stats.stop_reason, "pressure_reached");
+/// What the brute-force count and the library's report say of a jammed packing.
+struct Judged {
+    phi: f64,
+    rattlers: f64,
+    /// Backbone spheres and contacts.
+    kept: usize,
+    pairs: usize,
+    z: f64,
+}
+
+/// Counts `packing`'s network by brute force, checks the library's report against the
+/// count, and asks the report's LP certificate (the force form of Donev et al., solved on
+/// the counted contacts: independent of the `[jam]` programs, which move spheres).
+fn judge(packing: &Packing) -> Judged {
     let (centres, radii, edge) = spheres(packing);
     let n = centres.len();
     let found = contacts(&centres, &radii, edge);
     let (kept, pairs) = backbone(n, &found);
     let rattlers = 1.0 - kept as f64 / n as f64;
     let z = 2.0 * pairs as f64 / kept as f64;
-    let per_freedom = pairs as f64 / (3 * kept - 3) as f64;
     let phi = packing.stats.packing_fraction;
     eprintln!(
-        "φ {phi:.5}, contacts {}, rattlers {:.2} %, backbone Z {z:.4}, contacts per freedom {per_freedom:.4}",
+        "φ {phi:.5}, contacts {}, rattlers {:.2} %, backbone {kept} spheres, {pairs} contacts, \
+         Z {z:.4}",
         found.len(),
         100.0 * rattlers
     );
-    // The library's report agrees with the brute-force count.
-    let report = jamming_report(packing, CUTOFF, false, 1, 0.0).expect("spheres");
+    let report = jamming_report(packing, CUTOFF, true, 1, 600.0).expect("spheres");
     let row = &report.at_cutoff;
     assert!(
         (row.mean_contacts * n as f64 / 2.0 - found.len() as f64).abs() < 1e-6,
@@ -175,15 +180,57 @@ fn a_slow_finish_builds_a_rigid_backbone_near_isostatic() {
     );
     assert!((row.rattler_fraction - rattlers).abs() < 1e-12);
     assert!((row.backbone_mean_contacts.unwrap() - z).abs() < 1e-9);
-    // MRJ φ ≈ 0.64 (0.635–0.650 over the protocols of the literature).
-    assert!((0.635..=0.650).contains(&phi), "φ = {phi}");
-    // Literature: 1.5–3 % rattlers.
-    assert!(rattlers <= 0.03, "rattlers {rattlers}");
-    // Literature: isostatic, Z = 6 and one contact per freedom (plus one self-stress).
-    assert!((z - 6.0).abs() < 0.05, "backbone Z {z}");
-    assert!(per_freedom > 0.99 && per_freedom < 1.01, "{per_freedom}");
+    let lp = report.lp.expect("the LP test ran");
+    assert!(lp.jammed, "LP certificate: {lp:?}");
     // No crystallisation: Q6 far below FCC's 0.575 (random bonds: 1/√bonds ≈ 0.02).
     assert!(report.q6 < 0.1, "Q6 {}", report.q6);
+    Judged {
+        phi,
+        rattlers,
+        kept,
+        pairs,
+        z,
+    }
+}
+
+#[test]
+fn the_jam_step_makes_the_slow_scene_isostatic_and_collectively_jammed() {
+    let scene = Scene::from_toml(SLOW_SCENE).expect("the slow scene parses");
+    assert_eq!(scene.particles.count, small_default_scene().particles.count);
+    let outcome = run_scene(&scene, &mut |_, _| {}).expect("the scene runs");
+    assert_eq!(outcome.packing.stats.stop_reason, "collectively_jammed");
+    let j = judge(&outcome.packing);
+    // MRJ φ ≈ 0.64 (0.635–0.650 over the protocols of the literature).
+    assert!((0.635..=0.650).contains(&j.phi), "φ = {}", j.phi);
+    // Literature: 1.5–3 % rattlers.
+    assert!(j.rattlers <= 0.03, "rattlers {}", j.rattlers);
+    // Isostatic: one contact per non-trivial freedom (3n − 3 in a periodic box) and one
+    // more for the self-stress that carries the pressure, exactly; so Z = 6 − 4/n.
+    assert_eq!(j.pairs, 3 * j.kept - 2, "contacts of the backbone");
+    assert!((j.z - 6.0).abs() < 0.02, "backbone Z {}", j.z);
+}
+
+#[test]
+fn a_jammed_bidisperse_packing_is_isostatic() {
+    // 50:50 diameters 1 : 1.4, 1 000 spheres (O'Hern et al. 2003 jam this mixture: φ_J ≈
+    // 0.64, isostatic backbone), the slow scene's stages and `[jam]`.
+    let text = SLOW_SCENE.replace(
+        "count = 1000\ndiameter = 1.0",
+        "components = [{ count = 500, diameter = 1.0 }, { count = 500, diameter = 1.4 }]",
+    );
+    let mut scene = Scene::from_toml(&text).expect("the bidisperse scene parses");
+    // The same number density of spheres of mean volume (1 + 1.4³)/2.
+    let scale = ((1.0 + 1.4f64.powi(3)) / 2.0).cbrt();
+    match &mut scene.container {
+        ContainerSpec::Box { size, .. } => size.iter_mut().for_each(|s| *s *= scale),
+        other => panic!("a periodic box, not {other:?}"),
+    }
+    let outcome = run_scene(&scene, &mut |_, _| {}).expect("the scene runs");
+    assert_eq!(outcome.packing.stats.stop_reason, "collectively_jammed");
+    let j = judge(&outcome.packing);
+    assert!((0.63..=0.66).contains(&j.phi), "φ = {}", j.phi);
+    assert_eq!(j.pairs, 3 * j.kept - 2, "contacts of the backbone");
+    assert!((j.z - 6.0).abs() < 0.05, "backbone Z {}", j.z);
 }
 
 #[test]
@@ -199,4 +246,36 @@ fn the_default_fixed_rate_leaves_no_rigid_backbone() {
         "{kept} of {} spheres kept",
         centres.len()
     );
+}
+
+#[test]
+fn jam_is_refused_where_its_programs_do_not_apply() {
+    let refused = |text: &str| Scene::from_toml(text).unwrap_err().to_string();
+    let base = SLOW_SCENE;
+    // Ellipsoids jam through curvature, which the first-order programs do not see.
+    let ellipsoids = base.replace(
+        "packing_fraction = 0.3",
+        "packing_fraction = 0.3\n[particles.ellipsoid]\naspect_ratios = [1.5, 1.5]",
+    );
+    let message = refused(&ellipsoids);
+    assert!(message.contains("jam"), "{message}");
+    // A common growth factor would break a claimed gap.
+    let gap = "seed = 1\n[container]\ntype = \"box\"\nsize = [10.0, 10.0, 10.0]\n\
+               periodic = [true, true, true]\n[particles]\ncount = 1000\ndiameter = 1.0\n\
+               packing_fraction = 0.3\n[[stage]]\ngrowth = \"relative\"\nrate = 0.1\n\
+               until = { full_size = true }\n[[stage]]\ngrowth = \"absolute\"\n\
+               rate = 0.001\nuntil = { gap = 0.01 }\n[jam]\nmethod = \"linear_programming\"\n";
+    assert!(Scene::from_toml(&gap.replace("[jam]\nmethod = \"linear_programming\"\n", "")).is_ok());
+    let message = refused(gap);
+    assert!(
+        message.contains("jam") && message.contains("gap"),
+        "{message}"
+    );
+    let message = refused(&format!("{base}max_steps = 0\n"));
+    assert!(
+        message.contains("jam.max_steps") && message.contains("[1, 10000]"),
+        "{message}"
+    );
+    let message = refused(&format!("{base}max_wall_seconds = -1\n"));
+    assert!(message.contains("jam.max_wall_seconds"), "{message}");
 }

@@ -148,6 +148,11 @@ pub enum StopReason {
     JammedBeforeGoal,
     /// Another thread set the kernel's cancel flag ([`Edmd::set_cancel`]).
     Cancelled,
+    /// `[jam]` found no first-order motion that grows the particles: collectively jammed
+    /// (set by the runner, [`crate::protocol::slp`]).
+    CollectivelyJammed,
+    /// `[jam]`'s linear program could not be solved.
+    SolverFailed,
 }
 
 impl StopReason {
@@ -160,6 +165,7 @@ impl StopReason {
                 | Self::TimeReached
                 | Self::GapReached
                 | Self::CollisionsReached
+                | Self::CollectivelyJammed
         )
     }
 
@@ -173,6 +179,10 @@ impl StopReason {
             }
             Self::Stalled => {
                 ": simulated time stopped advancing (see `stall_epsilon` in docs/scenes.md)"
+            }
+            Self::SolverFailed => {
+                ": the solver of `[jam]` failed on a step's linear program (report it with the \
+                 scene)"
             }
             _ => "",
         }
@@ -192,6 +202,8 @@ impl StopReason {
             Self::Unreachable => "unreachable",
             Self::JammedBeforeGoal => "jammed_before_goal",
             Self::Cancelled => "cancelled",
+            Self::CollectivelyJammed => "collectively_jammed",
+            Self::SolverFailed => "solver_failed",
         }
     }
 }

@@ -3,4 +3,5 @@
 
 pub mod mixture;
 pub mod rsa;
+pub mod slp;
 pub mod take_phase;

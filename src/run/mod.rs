@@ -48,8 +48,8 @@ use rand::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
 use spheres::Spheres;
 use stages::{
-    finish, resumed_kernel, run_stages, sphere_fraction, stats_of_stages, Placed, StagesDone,
-    StagesFrom,
+    finish, jam_placed, resumed_kernel, run_stages, sphere_fraction, stats_of_stages, Placed,
+    StagesDone, StagesFrom,
 };
 
 /// A finished run of any scene: the packing (verified) and what happened.
@@ -407,7 +407,27 @@ fn run_with<R: ShapeRun, B: Boundary + SceneContainer, Q: EventQueue>(
         on_stage,
         on_progress,
     )?;
-    let (placed, extra) = R::packing(kernel, &original, &true_diameters, &done);
+    let (mut placed, extra) = R::packing(kernel, &original, &true_diameters, &done);
+    let mut done = done;
+    if let Some(jam) = &scene.jam {
+        let report = jam_placed(&mut placed, &original.record(), jam, done.reports.last());
+        on_stage(done.reports.len(), &report);
+        let stop = report.stop_reason;
+        done.reports.push(report);
+        if !stop.is_success() {
+            let last = done.reports.last().expect("just pushed");
+            return Err(RunError::StageFailed {
+                stage: done.reports.len() - 1,
+                goal: "[jam]: collectively jammed".into(),
+                reason: stop.as_str(),
+                hint: stop.hint(),
+                events: last.counts.events,
+                fraction: last.packing_fraction,
+                pressure: last.reduced_pressure,
+                stages: done.reports,
+            });
+        }
+    }
     let mut stats = stats_of_stages(&done.reports, placed.particles.len());
     stats.extra.extend(extra);
     finish(

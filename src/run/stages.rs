@@ -11,12 +11,13 @@ use crate::io::packing::{
     ContainerRecord, Packing, PackingStats, ParticleRecord, Provenance, Timings,
 };
 use crate::io::record::SphereRecord;
-use crate::io::scene::{GrowthKind, Scene, StageSpec};
+use crate::io::scene::{GrowthKind, JamSpec, Scene, StageSpec};
 use crate::io::units::Units;
 use crate::kernel::{
-    Edmd, KernelConfig, Limits, PressureAdaptive, Progress, RateSchedule, Stage, StageProgress,
-    StageReport, StopReason, Until, JAMMING_PRESSURE,
+    Edmd, EventCounts, KernelConfig, Limits, PressureAdaptive, Progress, RateSchedule, Stage,
+    StageProgress, StageReport, StopReason, Until, JAMMING_PRESSURE,
 };
+use crate::protocol::slp::{BoxedSpheres, SlpSettings, SlpStop};
 use crate::queue::EventQueue;
 use crate::shape::{Collidable, Growth, Vec3};
 use crate::verify::verify;
@@ -405,6 +406,71 @@ impl Placed {
             min_gap,
             wall_gap,
         }
+    }
+}
+
+/// The `[jam]` step on the spheres of a finished run in `container` (a box, in the
+/// boundary's frame): sequential linear programming until collectively jammed
+/// ([`crate::protocol::slp`]), its report as a stage's. A steps' event count is its
+/// programs; the pressure is the last stage's (the programs measure none).
+pub(super) fn jam_placed(
+    placed: &mut Placed,
+    container: &ContainerRecord,
+    jam: &JamSpec,
+    last: Option<&StageReport>,
+) -> StageReport {
+    let ContainerRecord::Box { min, max, periodic } = container else {
+        unreachable!("validation admits [jam] in a box only");
+    };
+    let (centers, radii) = placed
+        .particles
+        .iter()
+        .map(|p| match p {
+            ParticleRecord::Sphere(s) => (s.center, s.radius),
+            _ => unreachable!("validation admits [jam] with spheres only"),
+        })
+        .unzip();
+    let mut spheres = BoxedSpheres {
+        lo: *min,
+        len: std::array::from_fn(|k| max[k] - min[k]),
+        periodic: *periodic,
+        centers,
+        radii,
+    };
+    let settings = SlpSettings {
+        max_steps: jam.max_steps.unwrap_or(SlpSettings::default().max_steps),
+        max_seconds: jam.max_wall_seconds.unwrap_or(f64::INFINITY),
+        ..SlpSettings::default()
+    };
+    let outcome = spheres.jam(&settings, &mut |_| {});
+    for (p, (c, r)) in placed
+        .particles
+        .iter_mut()
+        .zip(spheres.centers.iter().zip(&spheres.radii))
+    {
+        *p = ParticleRecord::Sphere(SphereRecord {
+            center: *c,
+            radius: *r,
+        });
+    }
+    placed.volume *= outcome.growth.powi(3);
+    let volume: f64 = spheres.len.iter().product();
+    StageReport {
+        stop_reason: match outcome.stop {
+            SlpStop::Jammed => StopReason::CollectivelyJammed,
+            SlpStop::StepLimit => StopReason::EventLimit,
+            SlpStop::TimeLimit => StopReason::WallClockLimit,
+            SlpStop::SolverFailed(_) => StopReason::SolverFailed,
+        },
+        counts: EventCounts {
+            events: outcome.steps as u64,
+            ..EventCounts::default()
+        },
+        simulated_time: 0.0,
+        wall_seconds: outcome.seconds,
+        packing_fraction: placed.volume / volume,
+        reduced_pressure: last.map_or(0.0, |r| r.reduced_pressure),
+        reduced_pressure_stderr: None,
     }
 }
 

@@ -126,6 +126,32 @@ pub struct Scene {
     /// The stages, run in order (EDMD only).
     #[serde(rename = "stage", default)]
     pub stages: Vec<StageSpec>,
+    /// A last step after the stages that makes the packing collectively jammed (spheres in
+    /// a box).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub jam: Option<JamSpec>,
+}
+
+/// The `[jam]` table: after the stages, sequential linear programming
+/// ([`crate::protocol::slp`]) moves and grows the spheres until no first-order motion lets
+/// them grow: a collectively jammed packing with an isostatic backbone.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct JamSpec {
+    /// How: `"linear_programming"` (the only method).
+    pub method: JamMethod,
+    /// Most steps (default 200), in `[1, 10000]`; the run fails when they are not enough.
+    pub max_steps: Option<usize>,
+    /// Most wall-clock seconds (default none); the run fails when they run out.
+    pub max_wall_seconds: Option<f64>,
+}
+
+/// The methods of `[jam]`.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum JamMethod {
+    /// Sequential linear programming ([`crate::protocol::slp`]).
+    LinearProgramming,
 }
 
 /// The packing algorithm of a scene.

@@ -9,6 +9,9 @@ use super::{
 };
 use crate::tuning::MAX_SKIN;
 
+/// Most steps `[jam]` may take.
+const MAX_JAM_STEPS: usize = 10_000;
+
 impl Scene {
     /// Checks every field against its allowed range.
     pub fn validate(&self) -> Result<(), SceneError> {
@@ -149,6 +152,7 @@ impl Scene {
             }
         }
         let final_diameter = self.validate_stages(&sizes, scale, container)?;
+        self.validate_jam()?;
         if let Some(e) = &self.particles.ellipsoid {
             let grows = self.stages.iter().any(|s| s.growth != GrowthKind::None);
             self.validate_ellipsoids(
@@ -173,6 +177,44 @@ impl Scene {
                     2.0 * d
                 ),
             ));
+        }
+        Ok(())
+    }
+
+    /// Checks `[jam]`: spheres in a box after EDMD stages, no gap claimed, limits in range.
+    fn validate_jam(&self) -> Result<(), SceneError> {
+        let Some(jam) = &self.jam else {
+            return Ok(());
+        };
+        let refuse = |why: &str| Err(invalid("jam", why));
+        if self.particles.ellipsoid.is_some() {
+            return refuse(
+                "applies to spheres: its programs are the spheres' non-overlap constraints \
+                 (ellipsoids jam by their curvature, which first order does not see)",
+            );
+        }
+        if matches!(self.container, ContainerSpec::Cylinder { .. }) {
+            return refuse("applies to a box container (periodic or walled axes)");
+        }
+        if self.method == Method::Rsa {
+            return refuse("follows the stages of method = \"edmd\"");
+        }
+        if self.stages.iter().any(|s| s.opens_gap()) {
+            return refuse(
+                "grows every radius by the same factor, which would break the gap a gap \
+                 stage claims; jam without the gap stage",
+            );
+        }
+        if let Some(n) = jam.max_steps {
+            if !(1..=MAX_JAM_STEPS).contains(&n) {
+                return Err(invalid(
+                    "jam.max_steps",
+                    format!("= {n} is outside the allowed range [1, {MAX_JAM_STEPS}]"),
+                ));
+            }
+        }
+        if let Some(x) = jam.max_wall_seconds {
+            wall_seconds("jam.max_wall_seconds", x)?;
         }
         Ok(())
     }
