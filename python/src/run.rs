@@ -59,7 +59,8 @@ pub fn run_scene(
     };
     let scene = scene.scene.clone();
     let stages = match &scene {
-        AnyScene::Spheres(s) => s.stages.len(),
+        // `[jam]` reports as one more stage.
+        AnyScene::Spheres(s) => s.stages.len() + usize::from(s.jam.is_some()),
         AnyScene::Mixture(_) => 0,
     };
     let cancel = Arc::new(AtomicBool::new(false));
