@@ -411,8 +411,8 @@ impl Placed {
 
 /// The `[jam]` step on the spheres of a finished run in `container` (a box, in the
 /// boundary's frame): sequential linear programming until collectively jammed
-/// ([`crate::protocol::slp`]), its report as a stage's. A steps' event count is its
-/// programs; the pressure is the last stage's (the programs measure none).
+/// ([`crate::protocol::slp`]), its report as a stage's: its events are the programs
+/// solved, its pressure the last stage's (the programs measure none).
 pub(super) fn jam_placed(
     placed: &mut Placed,
     container: &ContainerRecord,
