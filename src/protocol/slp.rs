@@ -103,6 +103,8 @@ pub enum SlpStop {
     TimeLimit,
     /// The solver failed (its status).
     SolverFailed(String),
+    /// The caller's `on_step` asked to stop.
+    Cancelled,
 }
 
 /// What the steps did.
@@ -155,11 +157,11 @@ struct Step {
 
 impl BoxedSpheres {
     /// Steps until jammed (module docs), or until a limit of `settings`; `on_step` sees
-    /// each step.
+    /// each step and stops the steps by breaking ([`SlpStop::Cancelled`]).
     pub fn jam(
         &mut self,
         settings: &SlpSettings,
-        on_step: &mut dyn FnMut(&StepReport),
+        on_step: &mut dyn FnMut(&StepReport) -> std::ops::ControlFlow<()>,
     ) -> SlpOutcome {
         let start = Instant::now();
         let unit = self.mean_diameter();
@@ -185,13 +187,17 @@ impl BoxedSpheres {
             };
             outcome.steps += 1;
             outcome.growth *= step.scale;
-            on_step(&StepReport {
+            let seen = on_step(&StepReport {
                 step: outcome.steps,
                 trust: trust / unit,
                 q: step.q,
                 scale: step.scale,
                 seconds: start.elapsed().as_secs_f64(),
             });
+            if seen.is_break() {
+                outcome.stop = SlpStop::Cancelled;
+                break;
+            }
             if step.q < JAMMED_GROWTH && trust <= MIN_TRUST * unit * (1.0 + 1e-9) {
                 outcome.stop = SlpStop::Jammed;
                 break;
@@ -461,6 +467,7 @@ impl Forest {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::ops::ControlFlow;
 
     /// `centres` perturbed by a fixed pattern of at most `amplitude` per coordinate.
     fn perturbed(centres: &[[f64; 3]], amplitude: f64) -> Vec<[f64; 3]> {
@@ -477,7 +484,7 @@ mod tests {
     }
 
     fn jammed(spheres: &mut BoxedSpheres) -> SlpOutcome {
-        let outcome = spheres.jam(&SlpSettings::default(), &mut |_| {});
+        let outcome = spheres.jam(&SlpSettings::default(), &mut |_| ControlFlow::Continue(()));
         assert_eq!(outcome.stop, SlpStop::Jammed, "{outcome:?}");
         outcome
     }
@@ -511,6 +518,25 @@ mod tests {
         for r in &spheres.radii {
             assert!((r / exact - 1.0).abs() < 1e-12, "r = {r}, FCC {exact}");
         }
+    }
+
+    #[test]
+    fn a_step_observer_stops_the_steps() {
+        let mut spheres = BoxedSpheres {
+            lo: [0.0; 3],
+            len: [4.0; 3],
+            periodic: [false; 3],
+            centers: (0..8)
+                .map(|k| std::array::from_fn(|a| if (k >> a) & 1 == 1 { 3.0 } else { 1.0 }))
+                .collect(),
+            radii: vec![0.5; 8],
+        };
+        let outcome = spheres.jam(&SlpSettings::default(), &mut |r| {
+            assert_eq!(r.step, 1);
+            ControlFlow::Break(())
+        });
+        assert_eq!((&outcome.stop, outcome.steps), (&SlpStop::Cancelled, 1));
+        assert!(outcome.growth > 1.0, "the step taken is kept: {outcome:?}");
     }
 
     #[test]

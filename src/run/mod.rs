@@ -410,9 +410,18 @@ fn run_with<R: ShapeRun, B: Boundary + SceneContainer, Q: EventQueue>(
     let (mut placed, extra) = R::packing(kernel, &original, &true_diameters, &done);
     let mut done = done;
     if let Some(jam) = &scene.jam {
-        let report = jam_placed(&mut placed, &original.record(), jam, done.reports.last());
+        let report = jam_placed(
+            &mut placed,
+            &original.record(),
+            jam,
+            done.reports.last(),
+            job.cancel.as_deref(),
+        );
         on_stage(done.reports.len(), &report);
         let stop = report.stop_reason;
+        if stop == crate::kernel::StopReason::Cancelled {
+            return Err(RunError::Cancelled);
+        }
         done.reports.push(report);
         if !stop.is_success() {
             let last = done.reports.last().expect("just pushed");

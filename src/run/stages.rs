@@ -418,6 +418,7 @@ pub(super) fn jam_placed(
     container: &ContainerRecord,
     jam: &JamSpec,
     last: Option<&StageReport>,
+    cancel: Option<&std::sync::atomic::AtomicBool>,
 ) -> StageReport {
     let ContainerRecord::Box { min, max, periodic } = container else {
         unreachable!("validation admits [jam] in a box only");
@@ -442,7 +443,14 @@ pub(super) fn jam_placed(
         max_seconds: jam.max_wall_seconds.unwrap_or(f64::INFINITY),
         ..SlpSettings::default()
     };
-    let outcome = spheres.jam(&settings, &mut |_| {});
+    // The cancel flag is seen between steps (a step is seconds at 10³ spheres, minutes at 10⁴).
+    let outcome = spheres.jam(&settings, &mut |_| {
+        if crate::cancel::is_set(cancel) {
+            std::ops::ControlFlow::Break(())
+        } else {
+            std::ops::ControlFlow::Continue(())
+        }
+    });
     for (p, (c, r)) in placed
         .particles
         .iter_mut()
@@ -461,6 +469,7 @@ pub(super) fn jam_placed(
             SlpStop::StepLimit => StopReason::EventLimit,
             SlpStop::TimeLimit => StopReason::WallClockLimit,
             SlpStop::SolverFailed(_) => StopReason::SolverFailed,
+            SlpStop::Cancelled => StopReason::Cancelled,
         },
         counts: EventCounts {
             events: outcome.steps as u64,
