@@ -251,7 +251,7 @@ impl BoxedSpheres {
         pairs
     }
 
-    /// The room between sphere `i`'s centre and the wall at the low (`high = false`) or
+    /// The room between the centre `c` and the wall at the low (`high = false`) or
     /// high end of axis `a`.
     fn room(&self, c: &[f64; 3], a: usize, high: bool) -> f64 {
         if high {
@@ -483,6 +483,24 @@ mod tests {
             .collect()
     }
 
+    /// The centres of the octants of the cube `[0, 4]³`.
+    fn octant_centres() -> Vec<[f64; 3]> {
+        (0..8)
+            .map(|k| std::array::from_fn(|a| if (k >> a) & 1 == 1 { 3.0 } else { 1.0 }))
+            .collect()
+    }
+
+    /// Spheres of radius `r` at `centres` in the walled cube `[0, 4]³`.
+    fn walled_octants(centres: &[[f64; 3]], r: f64) -> BoxedSpheres {
+        BoxedSpheres {
+            lo: [0.0; 3],
+            len: [4.0; 3],
+            periodic: [false; 3],
+            centers: centres.to_vec(),
+            radii: vec![r; centres.len()],
+        }
+    }
+
     fn jammed(spheres: &mut BoxedSpheres) -> SlpOutcome {
         let outcome = spheres.jam(&SlpSettings::default(), &mut |_| ControlFlow::Continue(()));
         assert_eq!(outcome.stop, SlpStop::Jammed, "{outcome:?}");
@@ -522,15 +540,7 @@ mod tests {
 
     #[test]
     fn a_step_observer_stops_the_steps() {
-        let mut spheres = BoxedSpheres {
-            lo: [0.0; 3],
-            len: [4.0; 3],
-            periodic: [false; 3],
-            centers: (0..8)
-                .map(|k| std::array::from_fn(|a| if (k >> a) & 1 == 1 { 3.0 } else { 1.0 }))
-                .collect(),
-            radii: vec![0.5; 8],
-        };
+        let mut spheres = walled_octants(&octant_centres(), 0.5);
         let outcome = spheres.jam(&SlpSettings::default(), &mut |r| {
             assert_eq!(r.step, 1);
             ControlFlow::Break(())
@@ -543,16 +553,8 @@ mod tests {
     fn eight_spheres_in_a_walled_cube_jam_on_the_simple_cubic_lattice() {
         // In a walled cube of edge 4, eight equal spheres jam at r = 1, one per octant,
         // each touching three walls and three neighbours.
-        let lattice: Vec<[f64; 3]> = (0..8)
-            .map(|k| std::array::from_fn(|a| if (k >> a) & 1 == 1 { 3.0 } else { 1.0 }))
-            .collect();
-        let mut spheres = BoxedSpheres {
-            lo: [0.0; 3],
-            len: [4.0; 3],
-            periodic: [false; 3],
-            centers: perturbed(&lattice, 0.1),
-            radii: vec![0.8; 8],
-        };
+        let lattice = octant_centres();
+        let mut spheres = walled_octants(&perturbed(&lattice, 0.1), 0.8);
         let outcome = jammed(&mut spheres);
         assert!((outcome.growth * 0.8 - 1.0).abs() < 1e-12, "{outcome:?}");
         for (c, l) in spheres.centers.iter().zip(&lattice) {

@@ -117,6 +117,24 @@ pub enum RunError {
     Start(String),
 }
 
+impl RunError {
+    /// The failure of stage `stage`, whose goal was `goal` and whose report is the last of
+    /// `reports` (the stages so far).
+    pub(crate) fn stage_failed(stage: usize, goal: String, reports: Vec<StageReport>) -> Self {
+        let last = reports.last().expect("a failed stage has a report");
+        Self::StageFailed {
+            stage,
+            goal,
+            reason: last.stop_reason.as_str(),
+            hint: last.stop_reason.hint(),
+            events: last.counts.events,
+            fraction: last.packing_fraction,
+            pressure: last.reduced_pressure,
+            stages: reports,
+        }
+    }
+}
+
 impl From<SeedingError> for RunError {
     fn from(e: SeedingError) -> Self {
         match e {
@@ -398,7 +416,7 @@ fn run_with<R: ShapeRun, B: Boundary + SceneContainer, Q: EventQueue>(
         }
     };
     kernel.set_cancel(job.cancel.clone());
-    let done = run_stages(
+    let mut done = run_stages(
         scene,
         job,
         &mut kernel,
@@ -408,7 +426,6 @@ fn run_with<R: ShapeRun, B: Boundary + SceneContainer, Q: EventQueue>(
         on_progress,
     )?;
     let (mut placed, extra) = R::packing(kernel, &original, &true_diameters, &done);
-    let mut done = done;
     if let Some(jam) = &scene.jam {
         let report = jam_placed(
             &mut placed,
@@ -424,17 +441,12 @@ fn run_with<R: ShapeRun, B: Boundary + SceneContainer, Q: EventQueue>(
         }
         done.reports.push(report);
         if !stop.is_success() {
-            let last = done.reports.last().expect("just pushed");
-            return Err(RunError::StageFailed {
-                stage: done.reports.len() - 1,
-                goal: "[jam]: collectively jammed".into(),
-                reason: stop.as_str(),
-                hint: stop.hint(),
-                events: last.counts.events,
-                fraction: last.packing_fraction,
-                pressure: last.reduced_pressure,
-                stages: done.reports,
-            });
+            let stage = done.reports.len() - 1;
+            return Err(RunError::stage_failed(
+                stage,
+                "[jam]: collectively jammed".into(),
+                done.reports,
+            ));
         }
     }
     let mut stats = stats_of_stages(&done.reports, placed.particles.len());

@@ -336,17 +336,7 @@ where
         };
         reports.push(report);
         if !reached {
-            let last = reports.last().expect("just pushed");
-            return Err(RunError::StageFailed {
-                stage: k,
-                goal: spec.until.describe(),
-                reason: last.stop_reason.as_str(),
-                hint: last.stop_reason.hint(),
-                events: last.counts.events,
-                fraction: last.packing_fraction,
-                pressure: last.reduced_pressure,
-                stages: reports,
-            });
+            return Err(RunError::stage_failed(k, spec.until.describe(), reports));
         }
     }
     Ok(StagesDone {
@@ -396,17 +386,21 @@ impl Placed {
                 })
             })
             .collect();
-        let volume = radii
-            .iter()
-            .map(|r| 4.0 / 3.0 * std::f64::consts::PI * r * r * r)
-            .sum();
         Self {
             particles,
-            volume,
+            volume: balls_volume(radii),
             min_gap,
             wall_gap,
         }
     }
+}
+
+/// Total volume of spheres of radii `radii`.
+fn balls_volume(radii: &[f64]) -> f64 {
+    radii
+        .iter()
+        .map(|r| 4.0 / 3.0 * std::f64::consts::PI * r * r * r)
+        .sum()
 }
 
 /// The `[jam]` step on the spheres of a finished run in `container` (a box, in the
@@ -461,7 +455,7 @@ pub(super) fn jam_placed(
             radius: *r,
         });
     }
-    placed.volume *= outcome.growth.powi(3);
+    placed.volume = balls_volume(&spheres.radii);
     let volume: f64 = spheres.len.iter().product();
     StageReport {
         stop_reason: match outcome.stop {
