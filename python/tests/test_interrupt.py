@@ -34,6 +34,40 @@ def test_keyboard_interrupt_returns_control_within_a_second(scenes):
     assert returned - fired < 1.0
 
 
+def test_keyboard_interrupt_stops_a_jam_step_inside_its_linear_program(scenes):
+    # 2 000 spheres at the default scene's fixed rate (about 1 s), then `[jam]`: its first
+    # linear program alone takes about 10 s here (Clarabel, 2 000 spheres).
+    scene = densepack.Scene.from_toml(scenes / "mono_periodic_jam.toml").with_values(
+        {"particles.count": 2000, "container.size": [14.62, 14.62, 14.62]}
+    )
+    d = scene.to_dict()
+    d["jam"] = {"method": "linear_programming"}
+    scene = densepack.Scene.from_dict(d)
+    fired = []
+
+    def interrupt(signum, frame):
+        fired.append(time.monotonic())
+        raise KeyboardInterrupt
+
+    def on_message(kind, stage, stages, record):
+        # The last growth stage has finished: the linear programs begin.
+        if kind == "stage" and stage == stages - 2:
+            signal.setitimer(signal.ITIMER_REAL, 1.0)
+
+    previous = signal.signal(signal.SIGALRM, interrupt)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            densepack.run(scene, progress=on_message)
+        returned = time.monotonic()
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+    assert fired, "the run ended before the interrupt"
+    # The solver sees the cancel flag at its next iteration (one factorisation, a fraction
+    # of a second here); a check between programs only would take the rest of the program.
+    assert returned - fired[0] < 2.0
+
+
 def interrupt_after(seconds, call):
     """Runs `call()` with a KeyboardInterrupt raised after `seconds`; whether it raised."""
 

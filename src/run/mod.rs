@@ -432,7 +432,7 @@ fn run_with<R: ShapeRun, B: Boundary + SceneContainer, Q: EventQueue>(
             &original.record(),
             jam,
             done.reports.last(),
-            job.cancel.as_deref(),
+            job.cancel.clone(),
         );
         on_stage(done.reports.len(), &report);
         let stop = report.stop_reason;

@@ -6,6 +6,7 @@
 
 use super::{container_origin, CheckpointPlan, Job, RunError, RunOutcome, SceneContainer};
 use crate::boundary::Boundary;
+use crate::cancel::CancelFlag;
 use crate::io::checkpoint::{write_checkpoint, CheckpointFile, CheckpointHeader};
 use crate::io::packing::{
     ContainerRecord, Packing, PackingStats, ParticleRecord, Provenance, Timings,
@@ -412,7 +413,7 @@ pub(super) fn jam_placed(
     container: &ContainerRecord,
     jam: &JamSpec,
     last: Option<&StageReport>,
-    cancel: Option<&std::sync::atomic::AtomicBool>,
+    cancel: Option<CancelFlag>,
 ) -> StageReport {
     let ContainerRecord::Box { min, max, periodic } = container else {
         unreachable!("validation admits [jam] in a box only");
@@ -435,16 +436,10 @@ pub(super) fn jam_placed(
     let settings = SlpSettings {
         max_steps: jam.max_steps.unwrap_or(SlpSettings::default().max_steps),
         max_seconds: jam.max_wall_seconds.unwrap_or(f64::INFINITY),
+        cancel,
         ..SlpSettings::default()
     };
-    // The cancel flag is seen between steps (a step is seconds at 10³ spheres, minutes at 10⁴).
-    let outcome = spheres.jam(&settings, &mut |_| {
-        if crate::cancel::is_set(cancel) {
-            std::ops::ControlFlow::Break(())
-        } else {
-            std::ops::ControlFlow::Continue(())
-        }
-    });
+    let outcome = spheres.jam(&settings, &mut |_| std::ops::ControlFlow::Continue(()));
     for (p, (c, r)) in placed
         .particles
         .iter_mut()
