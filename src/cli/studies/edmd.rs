@@ -332,6 +332,8 @@ pub fn equilibrium(ctx: &StudyContext) -> StudyOutput {
 pub fn jamming(ctx: &StudyContext) -> StudyOutput {
     let base =
         Scene::from_toml(JAM_SCENE).expect("examples/scenes/mono_periodic_jam.toml is valid");
+    let slow = Scene::from_toml(SLOW_JAM_SCENE)
+        .expect("examples/scenes/mono_periodic_jam_slow.toml is valid");
     let full = base
         .particles
         .count
@@ -342,9 +344,13 @@ pub fn jamming(ctx: &StudyContext) -> StudyOutput {
         &format!(
             "The default scene (periodic cube, monodisperse, RSA at φ = 0.3, relative growth \
              until Z = 1e12, thermostat) with N = {n}{}: its fixed rate, and a rate falling \
-             with the pressure followed by a slow finish, both queues. Contact network by \
-             `densepack analyse` at cut-off 1e-9: rattlers (not locally jammed) removed \
-             iteratively, backbone mean contact number (isostatic: 6).",
+             with the pressure followed by a slow finish, both queues; then the slow stages \
+             followed by `[jam]` (sequential linear programming; \
+             examples/scenes/mono_periodic_jam_slow.toml) at N ≤ {LP_MAX_N}, calendar queue. \
+             Contact network by `densepack analyse` at cut-off 1e-9: rattlers (not locally \
+             jammed) removed iteratively, backbone mean contact number (isostatic: 6 − 4/N_b \
+             over the N_b spheres of the backbone); the LP test of collective jamming at \
+             N ≤ {LP_MAX_N}.",
             if ctx.quick {
                 " (box edge scaled by (N/10⁴)^⅓ so the diameter is that of the scene)"
             } else {
@@ -354,6 +360,7 @@ pub fn jamming(ctx: &StudyContext) -> StudyOutput {
         &[
             "protocol",
             "queue",
+            "N",
             "wall s",
             "collisions",
             "collisions/particle",
@@ -362,22 +369,34 @@ pub fn jamming(ctx: &StudyContext) -> StudyOutput {
             "final Z",
             "rattlers %",
             "backbone Z",
+            "LP test",
         ],
     );
     let mut points: [Vec<(f64, f64)>; 2] = [Vec::new(), Vec::new()];
-    for slow in [false, true] {
-        for (q, queue) in QUEUES.iter().enumerate() {
+    // The fixed rate, the slow stages, the slow stages then `[jam]`.
+    for (stages, jam) in [(false, false), (true, false), (true, true)] {
+        let (queues, n) = if jam {
+            (&QUEUES[1..], n.min(LP_MAX_N))
+        } else {
+            (&QUEUES[..], n)
+        };
+        for (q, queue) in queues.iter().enumerate() {
             let mut scene = base.clone();
             scene.queue = match *queue {
                 "heap" => QueueKind::Heap,
                 _ => QueueKind::Calendar,
             };
-            if slow {
-                scene.stages = Scene::from_toml(SLOW_JAM_SCENE)
-                    .expect("examples/scenes/mono_periodic_jam_slow.toml is valid")
-                    .stages;
+            if stages {
+                scene.stages = slow.stages.clone();
             }
-            let protocol = protocol_label(&scene.stages);
+            if jam {
+                scene.jam = slow.jam;
+            }
+            let protocol = format!(
+                "{}{}",
+                protocol_label(&scene.stages),
+                if jam { "; then [jam]" } else { "" }
+            );
             if n != full {
                 let factor = (n as f64 / full as f64).cbrt();
                 scene.particles.count = Some(n);
@@ -390,17 +409,21 @@ pub fn jamming(ctx: &StudyContext) -> StudyOutput {
             scene
                 .validate()
                 .expect("the rescaled jamming scene is valid");
-            let lead = vec![protocol.clone(), queue.to_string()];
+            let lead = vec![protocol.clone(), queue.to_string(), n.to_string()];
             match run_outcome(&format!("jamming {queue} N = {n}, {protocol}"), &scene) {
                 Ok(outcome) => {
                     let stages = &outcome.stages;
                     let r = stages.last().expect("the scene has a stage");
                     let collisions: u64 = stages.iter().map(|s| s.counts.collisions).sum();
                     let wall: f64 = stages.iter().map(|s| s.wall_seconds).sum();
-                    let network = jamming_report(&outcome.packing, DEFAULT_CUTOFF, false, 0, 0.0)
-                        .expect("a sphere packing");
+                    let lp = n <= LP_MAX_N;
+                    let network =
+                        jamming_report(&outcome.packing, DEFAULT_CUTOFF, lp, 1, LP_SECONDS)
+                            .expect("a sphere packing");
                     let rattlers = 100.0 * network.at_cutoff.rattler_fraction;
-                    points[q].push((wall, rattlers));
+                    if !jam {
+                        points[q].push((wall, rattlers));
+                    }
                     table.row(
                         [
                             lead,
@@ -416,6 +439,9 @@ pub fn jamming(ctx: &StudyContext) -> StudyOutput {
                                     .at_cutoff
                                     .backbone_mean_contacts
                                     .map_or("none".into(), |z| format!("{z:.4}")),
+                                network.lp.map_or("not run".into(), |c| {
+                                    if c.jammed { "jammed" } else { "not jammed" }.into()
+                                }),
                             ],
                         ]
                         .concat(),
@@ -435,6 +461,13 @@ pub fn jamming(ctx: &StudyContext) -> StudyOutput {
         points,
     )
 }
+
+/// Largest N at which the `jamming` study runs `[jam]` and the LP test: a linear program
+/// of 10³ spheres takes seconds, of 10⁴ minutes.
+const LP_MAX_N: usize = 1000;
+
+/// Seconds each program of the LP test may take in the studies.
+const LP_SECONDS: f64 = 600.0;
 
 /// A chain of growth stages in words: `0.05 (falling as (1e2/Z)^1 to 0.005) → Z 1e9; …`.
 fn protocol_label(stages: &[StageSpec]) -> String {
