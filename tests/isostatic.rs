@@ -18,8 +18,9 @@
 use densepack::analysis::jamming::jamming_report;
 use densepack::io::packing::{ContainerRecord, Packing, ParticleRecord};
 use densepack::io::record::SphereRecord;
-use densepack::io::scene::{ContainerSpec, Scene};
-use densepack::run::run_scene;
+use densepack::io::scene::{AnyScene, ContainerSpec, Scene};
+use densepack::kernel::Progress;
+use densepack::run::{run, run_scene, RunOptions};
 
 const CUTOFF: f64 = 1e-9;
 const DEFAULT_SCENE: &str = include_str!("../examples/scenes/mono_periodic_jam.toml");
@@ -197,8 +198,33 @@ fn judge(packing: &Packing) -> Judged {
 fn the_jam_step_makes_the_slow_scene_isostatic_and_collectively_jammed() {
     let scene = Scene::from_toml(SLOW_SCENE).expect("the slow scene parses");
     assert_eq!(scene.particles.count, small_default_scene().particles.count);
-    let outcome = run_scene(&scene, &mut |_, _| {}).expect("the scene runs");
+    // The `[jam]` step reports as the stage after the growth stages, once per program.
+    let jam_stage = scene.stages.len();
+    let mut jam_progress = Vec::new();
+    let mut observe = |stage: usize, p: &Progress| {
+        if stage == jam_stage {
+            jam_progress.push((p.counts.events, p.packing_fraction));
+        }
+    };
+    let options = RunOptions {
+        on_progress: Some(&mut observe),
+        ..RunOptions::default()
+    };
+    let outcome = run(&AnyScene::Spheres(Box::new(scene)), options).expect("the scene runs");
     assert_eq!(outcome.packing.stats.stop_reason, "collectively_jammed");
+    let programs = outcome.stages.last().expect("a [jam] report").counts.events;
+    let numbered: Vec<u64> = jam_progress.iter().map(|&(k, _)| k).collect();
+    assert_eq!(numbered, (1..=programs).collect::<Vec<_>>());
+    assert!(
+        jam_progress.windows(2).all(|w| w[0].1 <= w[1].1),
+        "φ never falls"
+    );
+    let last = jam_progress.last().expect("programs were solved").1;
+    let phi = outcome.packing.stats.packing_fraction;
+    assert!(
+        (last / phi - 1.0).abs() < 1e-12,
+        "progress φ {last} against {phi}"
+    );
     let j = judge(&outcome.packing);
     // MRJ φ ≈ 0.64 (0.635–0.650 over the protocols of the literature).
     assert!((0.635..=0.650).contains(&j.phi), "φ = {}", j.phi);

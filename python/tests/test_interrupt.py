@@ -8,30 +8,47 @@ import pytest
 import densepack
 
 
-def test_keyboard_interrupt_returns_control_within_a_second(scenes):
-    # The embedded default scene: 10 000 spheres grown to Z = 1e12, several seconds of work.
-    scene = densepack.Scene.from_toml(scenes / "mono_periodic_jam.toml")
-    raised_at = []
+def run_interrupted(scene, arm_now=None, on_message=None):
+    """Runs `scene` until a KeyboardInterrupt from SIGALRM stops it: the alarm is armed
+    `arm_now` seconds ahead, or by `on_message(kind, stage, stages, arm)` calling `arm(s)`.
+    Returns when the alarm was due and when the run returned."""
+    due = []
 
     def interrupt(signum, frame):
-        raised_at.append(time.monotonic())
         raise KeyboardInterrupt
+
+    def arm(seconds):
+        due.append(time.monotonic() + seconds)
+        signal.setitimer(signal.ITIMER_REAL, seconds)
+
+    progress = False
+    if on_message is not None:
+
+        def progress(kind, stage, stages, record):
+            on_message(kind, stage, stages, arm)
 
     previous = signal.signal(signal.SIGALRM, interrupt)
     try:
-        signal.setitimer(signal.ITIMER_REAL, 1.5)
-        fired = time.monotonic() + 1.5
+        if arm_now is not None:
+            arm(arm_now)
         with pytest.raises(KeyboardInterrupt):
-            densepack.run(scene, progress=False)
+            densepack.run(scene, progress=progress)
         returned = time.monotonic()
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, previous)
-    assert raised_at, "the run ended before the interrupt"
+    assert due and due[-1] <= returned, "the run ended before the interrupt"
+    return due[-1], returned
+
+
+def test_keyboard_interrupt_returns_control_within_a_second(scenes):
+    # The embedded default scene: 10 000 spheres grown to Z = 1e12, several seconds of work.
+    scene = densepack.Scene.from_toml(scenes / "mono_periodic_jam.toml")
+    due, returned = run_interrupted(scene, arm_now=1.5)
     # Responsiveness bound of the requirement (not a speed threshold), from the signal: the
     # handler runs at the next poll (≤ 50 ms), the kernel sees the cancel flag within 1000
     # events.
-    assert returned - fired < 1.0
+    assert returned - due < 1.0
 
 
 def test_keyboard_interrupt_stops_a_jam_step_inside_its_linear_program(scenes):
@@ -43,29 +60,16 @@ def test_keyboard_interrupt_stops_a_jam_step_inside_its_linear_program(scenes):
     d = scene.to_dict()
     d["jam"] = {"method": "linear_programming"}
     scene = densepack.Scene.from_dict(d)
-    fired = []
 
-    def interrupt(signum, frame):
-        fired.append(time.monotonic())
-        raise KeyboardInterrupt
-
-    def on_message(kind, stage, stages, record):
+    def on_message(kind, stage, stages, arm):
         # The last growth stage has finished: the linear programs begin.
         if kind == "stage" and stage == stages - 2:
-            signal.setitimer(signal.ITIMER_REAL, 1.0)
+            arm(1.0)
 
-    previous = signal.signal(signal.SIGALRM, interrupt)
-    try:
-        with pytest.raises(KeyboardInterrupt):
-            densepack.run(scene, progress=on_message)
-        returned = time.monotonic()
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
-    assert fired, "the run ended before the interrupt"
+    due, returned = run_interrupted(scene, on_message=on_message)
     # The solver sees the cancel flag at its next iteration (one factorisation, a fraction
     # of a second here); a check between programs only would take the rest of the program.
-    assert returned - fired[0] < 2.0
+    assert returned - due < 2.0
 
 
 def interrupt_after(seconds, call):

@@ -433,6 +433,7 @@ fn run_with<R: ShapeRun, B: Boundary + SceneContainer, Q: EventQueue>(
             jam,
             done.reports.last(),
             job.cancel.clone(),
+            &mut |progress| on_progress(done.reports.len(), progress),
         );
         on_stage(done.reports.len(), &report);
         let stop = report.stop_reason;

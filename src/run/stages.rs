@@ -407,13 +407,15 @@ fn balls_volume(radii: &[f64]) -> f64 {
 /// The `[jam]` step on the spheres of a finished run in `container` (a box, in the
 /// boundary's frame): sequential linear programming until collectively jammed
 /// ([`crate::protocol::slp`]), its report as a stage's: its events are the programs
-/// solved, its pressure the last stage's (the programs measure none).
+/// solved, its pressure the last stage's (the programs measure none). `on_progress` sees
+/// the same record after every program.
 pub(super) fn jam_placed(
     placed: &mut Placed,
     container: &ContainerRecord,
     jam: &JamSpec,
     last: Option<&StageReport>,
     cancel: Option<CancelFlag>,
+    on_progress: &mut dyn FnMut(&Progress),
 ) -> StageReport {
     let ContainerRecord::Box { min, max, periodic } = container else {
         unreachable!("validation admits [jam] in a box only");
@@ -439,7 +441,27 @@ pub(super) fn jam_placed(
         cancel,
         ..SlpSettings::default()
     };
-    let outcome = spheres.jam(&settings, &mut |_| std::ops::ControlFlow::Continue(()));
+    let volume: f64 = spheres.len.iter().product();
+    let pressure = last.map_or(0.0, |r| r.reduced_pressure);
+    let mut fraction = balls_volume(&spheres.radii) / volume;
+    let outcome = spheres.jam(&settings, &mut |step| {
+        fraction *= step.scale.powi(3);
+        on_progress(&Progress {
+            stage_time: 0.0,
+            goal_time: None,
+            packing_fraction: fraction,
+            reduced_pressure: pressure,
+            counts: EventCounts {
+                events: step.step as u64,
+                ..EventCounts::default()
+            },
+            wall_seconds: step.seconds,
+            rate: 0.0,
+            grown: 0.0,
+            gap: None,
+        });
+        std::ops::ControlFlow::Continue(())
+    });
     for (p, (c, r)) in placed
         .particles
         .iter_mut()
@@ -451,7 +473,6 @@ pub(super) fn jam_placed(
         });
     }
     placed.volume = balls_volume(&spheres.radii);
-    let volume: f64 = spheres.len.iter().product();
     StageReport {
         stop_reason: match outcome.stop {
             SlpStop::Jammed => StopReason::CollectivelyJammed,
@@ -467,7 +488,7 @@ pub(super) fn jam_placed(
         simulated_time: 0.0,
         wall_seconds: outcome.seconds,
         packing_fraction: placed.volume / volume,
-        reduced_pressure: last.map_or(0.0, |r| r.reduced_pressure),
+        reduced_pressure: pressure,
         reduced_pressure_stderr: None,
     }
 }
