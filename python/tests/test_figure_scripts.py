@@ -9,6 +9,8 @@ import sys
 
 import pytest
 
+import densepack
+
 REPO = pathlib.Path(__file__).resolve().parents[2]
 
 pytest.importorskip("dask.distributed")
@@ -17,8 +19,9 @@ pytest.importorskip("dask.distributed")
 def test_jamming_against_n_smallest_rows_meet_the_exact_values(tmp_path, dask_client):
     """Paper 001, Fig. 5 at N ≤ 8 in the walled cube: one sphere and the simple cubic lattice
     jam at π/6, two spheres in opposite corners at (π/3)(√3/(1 + √3))³. At Z = 10¹² the gaps
-    are about 10⁻¹² of a diameter, so both protocols must meet the exact values to 10⁻⁶
-    (the script's sphere count at N = 4 jams in several ways and has no exact value)."""
+    are about 10⁻¹² of a diameter, so every protocol must meet the exact values to 10⁻⁶
+    (the script's sphere count at N = 4 jams in several ways and has no exact value); the
+    `fixed` protocol must not run the slow scene's `[jam]`."""
     out = tmp_path / "fig5"
     subprocess.run(
         [
@@ -30,6 +33,8 @@ def test_jamming_against_n_smallest_rows_meet_the_exact_values(tmp_path, dask_cl
             "1",
             "--max-n",
             "8",
+            "--protocols",
+            "fixed,slow,jam",
             "--scheduler",
             dask_client.scheduler_info()["address"],
         ],
@@ -47,6 +52,14 @@ def test_jamming_against_n_smallest_rows_meet_the_exact_values(tmp_path, dask_cl
         if r["boundary"] == "walled" and n in exact:
             assert abs(float(r["phi_mean"]) - exact[n]) < 1e-6, r
             checked += 1
-    # Both protocols, N = 1, 2 and 8.
-    assert checked == 6, rows
+    # Three protocols, N = 1, 2 and 8.
+    assert checked == 9, rows
     assert (out / "fixed_walled_1" / "summary.csv").is_file()
+    # Each protocol ran its own stages: `[jam]` only under `jam`.
+    for protocol, stop in [
+        ("fixed", "pressure_reached"),
+        ("slow", "pressure_reached"),
+        ("jam", "collectively_jammed"),
+    ]:
+        packing = densepack.Packing.load(out / f"{protocol}_walled_8" / "seed-1.json")
+        assert packing.stats["stop_reason"] == stop, protocol
