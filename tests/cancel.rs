@@ -2,6 +2,8 @@
 //! `RunError::Cancelled` and no packing, in every part of a run (EDMD stages, RSA seeding,
 //! mixture adsorption and relaxation).
 
+mod common;
+
 use densepack::io::scene::AnyScene;
 use densepack::run::{run, RunError, RunOptions};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -148,8 +150,7 @@ fn seeding_and_relaxation_stop_within_a_second_of_the_flag() {
 #[test]
 fn a_cancelled_realisation_is_lost_and_runs_again() {
     use densepack::ensemble::{packing_path, run_realisation, seeds_to_run, Status, SummaryWriter};
-    let dir = std::env::temp_dir().join(format!("densepack-cancel-lost-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    let dir = common::temp_dir("lost");
     let mut summary = SummaryWriter::open(&dir).unwrap();
     let scene = AnyScene::from_toml(LONG_RUN).unwrap();
     let row = run_realisation(&scene, 3, &dir, Some(Arc::new(AtomicBool::new(true))));
@@ -160,5 +161,4 @@ fn a_cancelled_realisation_is_lost_and_runs_again() {
     assert!(!packing_path(&dir, 3).exists());
     summary.append(&row).unwrap();
     assert_eq!(seeds_to_run(&dir, &[3]).unwrap(), [3]);
-    std::fs::remove_dir_all(&dir).unwrap();
 }

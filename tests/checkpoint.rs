@@ -429,5 +429,4 @@ fn a_gap_stage_resumes_to_the_same_gap_and_particles() {
         "{:?}",
         straight.wall_gap
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -144,7 +144,6 @@ fn four_seeds_give_four_verified_packings_that_the_summary_describes() {
     let o = ensemble(&scene, "3..6", &out, &[]);
     assert!(o.status.success());
     assert!(text(&o.stdout).contains("0 of 4 seeds to run"));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -181,7 +180,6 @@ fn failed_seeds_are_verdicts_with_exit_1_and_are_not_rerun() {
     let o = ensemble(&scene, "1,2", &out, &[]);
     assert_eq!(o.status.code(), Some(1));
     assert!(text(&o.stdout).contains("0 of 2 seeds to run"));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -248,5 +246,4 @@ fn overrides_reach_the_run_and_bad_input_exits_2_before_any_run() {
         text(&o.stderr)
     );
     assert!(!dir.join("p.json").exists());
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -6,15 +6,13 @@
 
 mod common;
 
-use common::densepack;
+use common::{densepack, temp_dir, TempDir};
 use densepack::io::record::SphereRecord;
 
 use std::path::PathBuf;
 
-fn packing_file(name: &str) -> (PathBuf, PathBuf) {
-    let dir = std::env::temp_dir().join(format!("densepack-export-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+fn packing_file(name: &str) -> (TempDir, PathBuf) {
+    let dir = temp_dir(name);
     let scene = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/tests/scenes/export_periodic.toml"
@@ -130,9 +128,7 @@ fn csv_export_round_trips_every_sphere_bit_for_bit() {
 
 #[test]
 fn sphere_only_formats_refuse_other_shapes_with_exit_code_2_and_write_nothing() {
-    let dir = std::env::temp_dir().join(format!("densepack-export-shapes-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = temp_dir("shapes");
     let scene = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/tests/scenes/export_mixture.toml"

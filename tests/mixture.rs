@@ -421,8 +421,7 @@ fn relaxer_gives_up_with_a_clear_message() {
 #[test]
 fn cli_runs_the_55_percent_scene_and_rejects_bad_ones() {
     use densepack::io::packing::{Packing, ParticleRecord};
-    let dir = std::env::temp_dir().join(format!("densepack-mixture-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::temp_dir("cli");
     let bin = env!("CARGO_BIN_EXE_densepack");
     let scene = concat!(
         env!("CARGO_MANIFEST_DIR"),
@@ -487,5 +486,4 @@ fn cli_runs_the_55_percent_scene_and_rejects_bad_ones() {
     assert_eq!(run.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&run.stderr).contains("mixture.cylinders"));
     assert!(!out.exists());
-    let _ = std::fs::remove_dir_all(&dir);
 }

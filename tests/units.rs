@@ -317,7 +317,6 @@ fn a_scaled_scene_resumes_to_the_same_packing() {
     assert_eq!(resumed.min_gap.to_bits(), straight.min_gap.to_bits());
     assert_eq!(resumed.container, straight.container);
     assert_eq!(resumed.stats.events, straight.stats.events);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Prolate ellipsoids (volume-equivalent diameter 0.45, so ℓ = 0.1 at scale 1) grown from a

@@ -15,9 +15,10 @@ pub fn densepack(args: &[&str]) -> std::process::Output {
         .expect("densepack runs")
 }
 
-/// A fresh, empty directory for one test: named after the test binary, `name` and the
-/// process, so parallel tests and test binaries never share one.
-pub fn temp_dir(name: &str) -> PathBuf {
+/// A fresh, empty directory for one test, removed with everything in it when the value is
+/// dropped (at the end of the test, passed or failed): named after the test binary, `name`
+/// and the process, so parallel tests and test binaries never share one.
+pub fn temp_dir(name: &str) -> TempDir {
     let dir = std::env::temp_dir().join(format!(
         "densepack-{}-{name}-{}",
         env!("CARGO_CRATE_NAME"),
@@ -25,7 +26,29 @@ pub fn temp_dir(name: &str) -> PathBuf {
     ));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    dir
+    TempDir(dir)
+}
+
+/// A test's directory ([`temp_dir`]); it reads as its path.
+pub struct TempDir(PathBuf);
+
+impl std::ops::Deref for TempDir {
+    type Target = PathBuf;
+    fn deref(&self) -> &PathBuf {
+        &self.0
+    }
+}
+
+impl AsRef<std::path::Path> for TempDir {
+    fn as_ref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
 }
 use densepack::io::scene::Scene;
 use densepack::run::{run_scene, RunOutcome};
