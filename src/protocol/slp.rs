@@ -52,6 +52,7 @@
 //! A simplex code (`microlp`) took 73 s for the first program of 1 000 spheres that Clarabel
 //! solves in 2.5 s.
 
+use crate::analysis::jamming::lp_settings;
 use crate::analysis::separation;
 use crate::cancel::CancelFlag;
 use crate::verify::PairLevels;
@@ -327,9 +328,7 @@ impl BoxedSpheres {
         cancel: Option<&CancelFlag>,
     ) -> Result<Step, Halt> {
         use clarabel::algebra::CscMatrix;
-        use clarabel::solver::{
-            DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
-        };
+        use clarabel::solver::{DefaultSolver, IPSolver, SolverStatus, SupportedConeT};
         let n = self.centers.len();
         let unit = self.mean_diameter();
         // Growth beyond a few trust regions is out of reach for touching pairs.
@@ -416,13 +415,7 @@ impl BoxedSpheres {
             SupportedConeT::ZeroConeT(equalities),
             SupportedConeT::NonnegativeConeT(m - equalities),
         ];
-        let settings = DefaultSettingsBuilder::default()
-            .verbose(false)
-            .direct_solve_method("faer".to_string())
-            .time_limit(seconds)
-            .build()
-            .expect("valid solver settings");
-        let mut solver = DefaultSolver::new(&p, &c, &a, &b, &cones, settings)
+        let mut solver = DefaultSolver::new(&p, &c, &a, &b, &cones, lp_settings(seconds))
             .map_err(|e| Halt::Failed(format!("{e:?}")))?;
         if let Some(flag) = cancel {
             let flag = flag.clone();
