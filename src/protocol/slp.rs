@@ -118,7 +118,7 @@ pub enum SlpStop {
     TimeLimit,
     /// The solver failed (its status).
     SolverFailed(String),
-    /// The caller's `on_step` asked to stop.
+    /// The cancel flag of the settings was set.
     Cancelled,
 }
 
@@ -188,12 +188,12 @@ struct Step {
 }
 
 impl BoxedSpheres {
-    /// Steps until jammed (module docs), or until a limit of `settings`; `on_step` sees
-    /// each step and stops the steps by breaking ([`SlpStop::Cancelled`]).
+    /// Steps until jammed (module docs), or until a limit or the cancel flag of `settings`
+    /// stops them; `on_step` sees each step.
     pub fn jam(
         &mut self,
         settings: &SlpSettings,
-        on_step: &mut dyn FnMut(&StepReport) -> std::ops::ControlFlow<()>,
+        on_step: &mut dyn FnMut(&StepReport),
     ) -> SlpOutcome {
         let start = Instant::now();
         let unit = self.mean_diameter();
@@ -227,17 +227,13 @@ impl BoxedSpheres {
             };
             outcome.steps += 1;
             outcome.growth *= step.scale;
-            let seen = on_step(&StepReport {
+            on_step(&StepReport {
                 step: outcome.steps,
                 trust: trust / unit,
                 q: step.q,
                 scale: step.scale,
                 seconds: start.elapsed().as_secs_f64(),
             });
-            if seen.is_break() {
-                outcome.stop = SlpStop::Cancelled;
-                break;
-            }
             if step.q < JAMMED_GROWTH && trust <= MIN_TRUST * unit * (1.0 + 1e-9) {
                 outcome.stop = SlpStop::Jammed;
                 break;
@@ -521,7 +517,6 @@ impl Forest {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::ops::ControlFlow;
 
     /// `centres` perturbed by a fixed pattern of at most `amplitude` per coordinate.
     fn perturbed(centres: &[[f64; 3]], amplitude: f64) -> Vec<[f64; 3]> {
@@ -556,7 +551,7 @@ mod tests {
     }
 
     fn jammed(spheres: &mut BoxedSpheres) -> SlpOutcome {
-        let outcome = spheres.jam(&SlpSettings::default(), &mut |_| ControlFlow::Continue(()));
+        let outcome = spheres.jam(&SlpSettings::default(), &mut |_| {});
         assert_eq!(outcome.stop, SlpStop::Jammed, "{outcome:?}");
         outcome
     }
@@ -593,11 +588,16 @@ mod tests {
     }
 
     #[test]
-    fn a_step_observer_stops_the_steps() {
+    fn a_cancel_between_steps_keeps_the_steps_taken() {
         let mut spheres = walled_octants(&octant_centres(), 0.5);
-        let outcome = spheres.jam(&SlpSettings::default(), &mut |r| {
+        let cancel: CancelFlag = std::sync::Arc::new(false.into());
+        let settings = SlpSettings {
+            cancel: Some(cancel.clone()),
+            ..SlpSettings::default()
+        };
+        let outcome = spheres.jam(&settings, &mut |r| {
             assert_eq!(r.step, 1);
-            ControlFlow::Break(())
+            cancel.store(true, Ordering::Relaxed);
         });
         assert_eq!((&outcome.stop, outcome.steps), (&SlpStop::Cancelled, 1));
         assert!(outcome.growth > 1.0, "the step taken is kept: {outcome:?}");
@@ -622,7 +622,7 @@ mod tests {
             cancel: Some(set),
             ..SlpSettings::default()
         };
-        let outcome = spheres.jam(&settings, &mut |_| ControlFlow::Continue(()));
+        let outcome = spheres.jam(&settings, &mut |_| {});
         assert_eq!((&outcome.stop, outcome.steps), (&SlpStop::Cancelled, 0));
     }
 

@@ -460,7 +460,6 @@ pub(super) fn jam_placed(
             grown: 0.0,
             gap: None,
         });
-        std::ops::ControlFlow::Continue(())
     });
     for (p, (c, r)) in placed
         .particles
