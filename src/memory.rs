@@ -37,6 +37,20 @@ pub fn estimate(count: f64, bytes_each: u64) -> u64 {
     items.saturating_mul(bytes_each).saturating_add(BASE_BYTES)
 }
 
+/// Hands the pages of freed heap memory back to the system (glibc's `malloc_trim`; nothing
+/// elsewhere). Between the phases of a run: the seeding's arrays of 10⁶ particles, freed
+/// below later allocations on the heap, would otherwise stay resident through the stages
+/// (measured: 19 B per particle of the whole process's peak at 10⁶ spheres). One walk
+/// over the heap's free blocks.
+pub fn release_freed() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: `malloc_trim` only returns unused pages of the allocator's own heap to the
+    // system; it is safe to call at any time from any thread.
+    unsafe {
+        libc::malloc_trim(0);
+    }
+}
+
 /// Memory the machine can give a new job without swapping: `MemAvailable` of
 /// `/proc/meminfo` (Linux). `None` where it is not known; then nothing is checked.
 pub fn available_bytes() -> Option<u64> {

@@ -213,9 +213,10 @@ impl LocalLists {
         all_empty(&self.events[i]) && self.truncated[i]
     }
 
-    /// The arrays, for reordering them with the particles.
-    pub(super) fn arrays_mut(&mut self) -> (&mut [[LocalEvent; LOCAL_CAPACITY]], &mut [bool]) {
-        (&mut self.events, &mut self.truncated)
+    /// Whether list `i` was truncated (tests).
+    #[cfg(test)]
+    pub(super) fn truncated(&self, i: usize) -> bool {
+        self.truncated[i]
     }
 }
 

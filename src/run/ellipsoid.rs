@@ -80,7 +80,7 @@ impl ShapeRun for Ellipsoids {
     fn seed<B: Boundary + SceneContainer, Q: EventQueue>(
         scene: &Scene,
         job: &Job,
-        true_diameters: &[f64],
+        true_diameters: Vec<f64>,
         // Validation refuses `particles.from` with ellipsoids.
         _start: Option<&StartPacking>,
         boundary: B,
@@ -92,9 +92,11 @@ impl ShapeRun for Ellipsoids {
             .ellipsoid
             .as_ref()
             .expect("an ellipsoid scene");
-        let scale = scene.seed_scale(true_diameters);
+        let scale = scene.seed_scale(&true_diameters);
         let seeding: Vec<f64> = true_diameters.iter().map(|d| scale * d).collect();
+        drop(true_diameters);
         let axes = semi_axes_of(&seeding, spec, rng);
+        drop(seeding);
         let bounding: Vec<f64> = axes.iter().map(|a| a.max()).collect();
         let centres = rsa_spheres(
             &boundary,
@@ -105,6 +107,7 @@ impl ShapeRun for Ellipsoids {
             job.cancel.as_deref(),
             rng,
         )?;
+        drop(bounding);
         let seeding_seconds = started.elapsed().as_secs_f64();
         let spins: Vec<Spin> = (0..axes.len())
             .map(|_| Spin {
@@ -127,7 +130,7 @@ impl ShapeRun for Ellipsoids {
     fn packing<B: Boundary, Q: EventQueue>(
         kernel: Edmd<Ellipsoid, B, Q>,
         original: &B,
-        _true_diameters: &[f64],
+        _true_diameters: &dyn Fn() -> Vec<f64>,
         done: &StagesDone,
     ) -> (Placed, Vec<(String, serde_json::Value)>) {
         // Back to the order of the seeding, which the kernel permutes for cache locality.

@@ -337,12 +337,13 @@ trait ShapeRun {
         + serde::de::DeserializeOwned;
 
     /// A fresh kernel for the scene's `true_diameters` (drawn first from `rng`; seeding
-    /// draws after them) or the spheres of `start` (`particles.from`, at their places), or
-    /// the finished packing of a scene that ends with its seeding.
+    /// draws after them; freed before the kernel is built) or the spheres of `start`
+    /// (`particles.from`, at their places; `true_diameters` is then empty), or the finished
+    /// packing of a scene that ends with its seeding.
     fn seed<B: Boundary + SceneContainer, Q: EventQueue>(
         scene: &Scene,
         job: &Job,
-        true_diameters: &[f64],
+        true_diameters: Vec<f64>,
         start: Option<&StartPacking>,
         boundary: B,
         rng: &mut Xoshiro256PlusPlus,
@@ -350,11 +351,12 @@ trait ShapeRun {
     ) -> Result<Seeded<Self::Shape, B, Q>, RunError>;
 
     /// The packing of the finished `kernel` in the container `original`, and the kind's
-    /// own statistics (in the order they are written).
+    /// own statistics (in the order they are written). `true_diameters` gives the sizes
+    /// [`ShapeRun::seed`] had (in input order), for the kinds that need them.
     fn packing<B: Boundary, Q: EventQueue>(
         kernel: Edmd<Self::Shape, B, Q>,
         original: &B,
-        true_diameters: &[f64],
+        true_diameters: &dyn Fn() -> Vec<f64>,
         done: &StagesDone,
     ) -> (Placed, Vec<(String, serde_json::Value)>);
 }
@@ -395,13 +397,19 @@ fn run_with<R: ShapeRun, B: Boundary + SceneContainer, Q: EventQueue>(
     // Ellipsoids are volume-equivalent to spheres of the true diameters.
     let full_size_fraction = sphere_fraction(&true_diameters, boundary.volume());
     let original = boundary.clone();
+    // Not held through the stages (8 B per particle of the peak): drawn sizes are drawn again
+    // from the seed for the packing; a start packing's are kept (and its centres freed).
+    let (true_diameters, given) = match &start {
+        Some(_) => (Vec::new(), Some(true_diameters)),
+        None => (true_diameters, None),
+    };
     // The random generator is consumed by seeding and the initial velocities only, so a
     // checkpoint (taken at a later barrier) needs none of its state.
     let (mut kernel, from, seeding_seconds) = match job.resume {
         None => match R::seed::<B, Q>(
             scene,
             job,
-            &true_diameters,
+            true_diameters,
             start.as_ref(),
             boundary,
             &mut rng,
@@ -415,6 +423,11 @@ fn run_with<R: ShapeRun, B: Boundary + SceneContainer, Q: EventQueue>(
             (kernel, from, 0.0)
         }
     };
+    drop(start);
+    let true_sizes = || match &given {
+        Some(sizes) => sizes.clone(),
+        None => scene.true_diameters(&mut Xoshiro256PlusPlus::seed_from_u64(scene.seed)),
+    };
     kernel.set_cancel(job.cancel.clone());
     let mut done = run_stages(
         scene,
@@ -425,7 +438,7 @@ fn run_with<R: ShapeRun, B: Boundary + SceneContainer, Q: EventQueue>(
         on_stage,
         on_progress,
     )?;
-    let (mut placed, extra) = R::packing(kernel, &original, &true_diameters, &done);
+    let (mut placed, extra) = R::packing(kernel, &original, &true_sizes, &done);
     if let Some(jam) = &scene.jam {
         let report = jam_placed(
             &mut placed,

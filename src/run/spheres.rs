@@ -23,7 +23,7 @@ impl ShapeRun for Spheres {
     fn seed<B: Boundary + SceneContainer, Q: EventQueue>(
         scene: &Scene,
         job: &Job,
-        true_diameters: &[f64],
+        true_diameters: Vec<f64>,
         start: Option<&StartPacking>,
         boundary: B,
         rng: &mut Xoshiro256PlusPlus,
@@ -35,8 +35,9 @@ impl ShapeRun for Spheres {
             let kernel = Edmd::new(centres, shapes, boundary, kernel_config(scene), rng);
             return Ok(Seeded::Kernel(kernel, started.elapsed().as_secs_f64()));
         }
-        let scale = scene.seed_scale(true_diameters);
+        let scale = scene.seed_scale(&true_diameters);
         let radii: Vec<f64> = true_diameters.iter().map(|d| 0.5 * scale * d).collect();
+        drop(true_diameters);
         let (rsa_gap, rsa_wall_gap) = match scene.method {
             Method::Rsa => {
                 let gap = scene.particles.gap.unwrap_or(0.0);
@@ -79,7 +80,8 @@ impl ShapeRun for Spheres {
             )
             .map(Seeded::Finished);
         }
-        let shapes = radii.iter().map(|&r| Sphere::new(r)).collect();
+        // `radii` is freed before the kernel allocates its arrays.
+        let shapes = radii.into_iter().map(Sphere::new).collect();
         let kernel = Edmd::new(centres, shapes, boundary, kernel_config(scene), rng);
         Ok(Seeded::Kernel(kernel, seeding_seconds))
     }
@@ -87,7 +89,7 @@ impl ShapeRun for Spheres {
     fn packing<B: Boundary, Q: EventQueue>(
         kernel: Edmd<Sphere, B, Q>,
         original: &B,
-        true_diameters: &[f64],
+        true_diameters: &dyn Fn() -> Vec<f64>,
         done: &StagesDone,
     ) -> (Placed, Vec<(String, serde_json::Value)>) {
         // The kernel's other arrays are freed before the output is built, so that the output
@@ -106,7 +108,7 @@ impl ShapeRun for Spheres {
             // fraction λ of it (`Stage::wall_growth`). The true radii come from the seed, so a
             // resumed run writes the same.
             Some(fraction) => {
-                let true_radii: Vec<f64> = true_diameters.iter().map(|d| 0.5 * d).collect();
+                let true_radii: Vec<f64> = true_diameters().iter().map(|d| 0.5 * d).collect();
                 let grown = grown_radii
                     .iter()
                     .zip(&true_radii)
