@@ -7,9 +7,10 @@
 //! such a job is refused before it starts, with the estimate and the limit.
 
 /// Peak resident memory of a sphere run per particle: seeding, kernel, verification and
-/// the packing record. Measured 296 B at 10⁶ spheres (calendar queue,
-/// `densepack bench-child-memory 1000000 calendar`, BENCHMARKS.md "Memory") and 306 B at
-/// 4·10⁴ (`/usr/bin/time -v`), rounded up.
+/// the packing record. Measured 262 B at 10⁶ spheres (calendar queue,
+/// `densepack bench-child-memory 1000000 calendar`, BENCHMARKS.md "Memory"), 303 B with
+/// the heap queue, 290 B at 2·10⁵; smaller runs carry fixed buffers as well (356 B at
+/// 4·10⁴, well inside [`BASE_BYTES`]). Rounded up.
 pub const SPHERE_BYTES: u64 = 320;
 
 /// Peak resident memory of a sphere + cylinder mixture per body: 238 B (RSA) and 571 B
