@@ -19,7 +19,8 @@ at 0.3; at N = 125 in the walled cube one seed in three gets stuck), then grown 
 
 Writes `DIR/<protocol>_<boundary>_<N>/` (packings and summary.csv), `DIR/jamming_vs_n.csv`
 (protocol, boundary, N, seeds ok, φ mean/min/max, exact value where known, mean wall
-seconds per run) and, with matplotlib, `DIR/jamming_vs_n.svg`. Exact values: N = 1 and
+seconds per run) and, with matplotlib, `DIR/jamming_vs_n.svg` (`--replot CSV ...` draws it
+again from saved tables without running anything). Exact values: N = 1 and
 N = 8 (simple cubic) in the walled cube jam at π/6; N = 2 in opposite corners at
 (π/3)(√3/(1 + √3))³ ≈ 0.2668 (the paper's "drop"); large N approaches φ_MRJ ≈ 0.64 from
 below in the walled cube (the wall layer is looser) and at about 0.64 in the periodic box.
@@ -83,7 +84,19 @@ def main() -> None:
         "jam 15 min more)",
     )
     parser.add_argument("--scheduler", help="address of a running Dask scheduler")
+    parser.add_argument(
+        "--replot",
+        type=pathlib.Path,
+        nargs="+",
+        metavar="CSV",
+        help="run nothing: draw DIR/jamming_vs_n.svg from the rows of these jamming_vs_n.csv "
+        "files (e.g. of runs with different --protocols)",
+    )
     args = parser.parse_args()
+    if args.replot:
+        args.out.mkdir(parents=True, exist_ok=True)
+        plot([r for path in args.replot for r in read_table(path)], args.out / "jamming_vs_n.svg")
+        return
     protocols = args.protocols.split(",")
     if not protocols or any(p not in PROTOCOLS for p in protocols):
         parser.error(f"--protocols: {args.protocols!r}; allowed: fixed, slow, jam, comma-separated")
@@ -147,6 +160,24 @@ def main() -> None:
         writer = csv.DictWriter(f, fieldnames=list(results[0]))
         writer.writeheader()
         writer.writerows(results)
+    plot(results, args.out / "jamming_vs_n.svg")
+
+
+def read_table(path: pathlib.Path) -> list[dict]:
+    """The rows of a `jamming_vs_n.csv` written by this script, with numbers as numbers."""
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    for r in rows:
+        r["n"] = int(r["n"])
+        r["seeds_ok"] = int(r["seeds_ok"])
+        for key in ["phi_mean", "phi_min", "phi_max", "wall_seconds_mean"]:
+            r[key] = float(r[key])
+    return rows
+
+
+def plot(results: list[dict], path: pathlib.Path) -> None:
+    """Draws φ against N, a series per protocol and boundary, to the SVG `path` (nothing
+    without matplotlib)."""
     try:
         import matplotlib
 
@@ -182,7 +213,7 @@ def main() -> None:
     ax.set_title("Paper 001, Fig. 5: jamming of N equal spheres")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(args.out / "jamming_vs_n.svg")
+    fig.savefig(path)
 
 
 if __name__ == "__main__":

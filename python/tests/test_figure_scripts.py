@@ -63,3 +63,39 @@ def test_jamming_against_n_smallest_rows_meet_the_exact_values(tmp_path, dask_cl
     ]:
         packing = densepack.Packing.load(out / f"{protocol}_walled_8" / "seed-1.json")
         assert packing.stats["stop_reason"] == stop, protocol
+    # The figure is drawn again from the saved table alone, the table read back as numbers.
+    replot = tmp_path / "replot"
+    done = subprocess.run(
+        [
+            sys.executable,
+            str(REPO / "benches" / "scripts" / "jamming_vs_n.py"),
+            "--out",
+            str(replot),
+            "--replot",
+            str(out / "jamming_vs_n.csv"),
+        ],
+        check=True,
+        timeout=60,
+        capture_output=True,
+        text=True,
+    )
+    try:
+        import matplotlib  # noqa: F401
+
+        assert (replot / "jamming_vs_n.svg").read_text().lstrip().startswith("<?xml")
+    except ImportError:
+        assert "matplotlib is not installed" in done.stdout
+        assert not (replot / "jamming_vs_n.svg").exists()
+    sys.path.insert(0, str(REPO / "benches" / "scripts"))
+    try:
+        import jamming_vs_n
+    finally:
+        sys.path.pop(0)
+    table = jamming_vs_n.read_table(out / "jamming_vs_n.csv")
+    assert [(r["protocol"], r["boundary"], r["n"]) for r in table] == [
+        (r["protocol"], r["boundary"], int(r["n"])) for r in rows
+    ]
+    assert all(
+        t["phi_mean"] == float(r["phi_mean"]) and isinstance(t["seeds_ok"], int)
+        for t, r in zip(table, rows)
+    )
