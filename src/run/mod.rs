@@ -419,6 +419,7 @@ fn run_with<R: ShapeRun, B: Boundary + SceneContainer, Q: EventQueue>(
             Seeded::Finished(outcome) => return Ok(outcome),
         },
         Some(file) => {
+            drop(true_diameters);
             let (kernel, from) = resumed_kernel(scene, file, boundary)?;
             (kernel, from, 0.0)
         }
