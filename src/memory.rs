@@ -9,7 +9,7 @@
 /// Peak resident memory of a sphere run per particle: seeding, kernel, verification and
 /// the packing record. Measured 262 B at 10⁶ spheres (calendar queue,
 /// `densepack bench-child-memory 1000000 calendar`, BENCHMARKS.md "Memory"), 303 B with
-/// the heap queue, 290 B at 2·10⁵; smaller runs carry fixed buffers as well (356 B at
+/// the heap queue, 290 B at 2·10⁵; smaller runs carry fixed buffers as well (380 B at
 /// 4·10⁴, well inside [`BASE_BYTES`]). Rounded up.
 pub const SPHERE_BYTES: u64 = 320;
 
@@ -39,11 +39,11 @@ pub fn estimate(count: f64, bytes_each: u64) -> u64 {
 }
 
 /// Hands the pages of freed heap memory back to the system (glibc's `malloc_trim`; nothing
-/// elsewhere). Between the phases of a run: the seeding's arrays of 10⁶ particles, freed
-/// below later allocations on the heap, would otherwise stay resident through the stages
-/// (measured: 19 B per particle of the whole process's peak at 10⁶ spheres). One walk
-/// over the heap's free blocks.
-pub fn release_freed() {
+/// elsewhere). glibc keeps freed blocks resident below a trim threshold that grows with the
+/// largest block freed, so the scratch of a grid rebuild at 10⁶ particles, freed below the
+/// lists, stayed resident through the run: 19 B per particle of the whole process's peak.
+/// A walk over the heap's free blocks; for large systems only (the caller decides).
+pub(crate) fn release_freed() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     // SAFETY: `malloc_trim` only returns unused pages of the allocator's own heap to the
     // system; it is safe to call at any time from any thread.

@@ -588,8 +588,11 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 permute_in_place(ids, order, visited);
                 permute_in_place(particles, order, visited);
             });
-        // The scratch, freed on the heap, would stay resident under the lists.
-        crate::memory::release_freed();
+        // The scratch, freed on the heap, would stay resident under the lists. Not worth a
+        // heap walk at every rebuild of a small system (under 2 MB of scratch).
+        if n >= TRIM_FROM {
+            crate::memory::release_freed();
+        }
         self.local = LocalLists::new(n);
         self.counters.grid_rebuilds += 1;
     }
@@ -1182,6 +1185,10 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.counters.neighbour_list_updates += 1;
     }
 }
+
+/// Particle count from which a grid rebuild hands its freed scratch back to the system
+/// ([`crate::memory::release_freed`]).
+const TRIM_FROM: usize = 100_000;
 
 /// Reorders `v` so that `v_new[i] = v_old[order[i]]`, in place by following the cycles of
 /// the permutation (no second copy of `v`: the kernel's arrays are its bulk of memory).
