@@ -135,6 +135,7 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    densepack::memory::map_large_blocks();
     let cli = Cli::parse();
     cli::out::finish(command(cli))
 }

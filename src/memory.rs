@@ -7,11 +7,12 @@
 //! such a job is refused before it starts, with the estimate and the limit.
 
 /// Peak resident memory of a sphere run per particle: seeding, kernel, verification and
-/// the packing record. Measured 262 B at 10⁶ spheres (calendar queue,
-/// `densepack bench-child-memory 1000000 calendar`, BENCHMARKS.md "Memory"), 303 B with
-/// the heap queue, 290 B at 2·10⁵; smaller runs carry fixed buffers as well (380 B at
-/// 4·10⁴, well inside [`BASE_BYTES`]). Rounded up.
-pub const SPHERE_BYTES: u64 = 320;
+/// the packing record. Measured 242 B at 10⁶ spheres above the empty process (247.5 B for
+/// the whole process; calendar queue, `densepack bench-child-memory 1000000 calendar`,
+/// BENCHMARKS.md "Memory"), 283 B with the heap queue, 254 B at 2·10⁵; smaller runs carry
+/// fixed buffers as well, well inside [`BASE_BYTES`]. Rounded up, with room for a host
+/// process that keeps glibc's dynamic mmap threshold ([`map_large_blocks`]).
+pub const SPHERE_BYTES: u64 = 300;
 
 /// Peak resident memory of a sphere + cylinder mixture per body: 238 B (RSA) and 571 B
 /// (relaxer) measured at 2·10⁴ spheres + 2·10⁴ cylinders, rounded up to the larger.
@@ -52,6 +53,33 @@ pub(crate) fn release_freed() {
     }
 }
 
+/// Smallest block the allocator maps on its own after [`map_large_blocks`] (glibc's initial
+/// mmap threshold, 128 KiB).
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+const MAP_FROM: i32 = 128 << 10;
+
+/// Makes the allocator serve every block of 128 KiB or more by a mapping of its
+/// own, handed back to the system when the block is freed (glibc: fixes `M_MMAP_THRESHOLD`;
+/// nothing elsewhere).
+///
+/// glibc otherwise raises its threshold to the size of every mapped block freed, up to
+/// 32 MiB, and serves later blocks below it from the heap, where they are placed among
+/// longer-lived ones. At 10⁶ spheres the 32 MB local event lists, freed and allocated again
+/// at each grid rebuild, then raised the peak of a run by 27 B per particle (BENCHMARKS.md,
+/// "Memory"). Fixing the threshold turns the adjustment off.
+///
+/// For a process that owns its allocator: the command line calls it first. A library host
+/// (Python) keeps its own policy; the kernel still trims freed pages after grid rebuilds
+/// there (`malloc_trim`).
+pub fn map_large_blocks() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: `mallopt` only changes the allocator's policy for later allocations; it is
+    // called before the command starts any thread.
+    unsafe {
+        libc::mallopt(libc::M_MMAP_THRESHOLD, MAP_FROM);
+    }
+}
+
 /// Memory the machine can give a new job without swapping: `MemAvailable` of
 /// `/proc/meminfo` (Linux). `None` where it is not known; then nothing is checked.
 pub fn available_bytes() -> Option<u64> {
@@ -84,7 +112,7 @@ pub struct TooLarge {
     pub needed: u64,
     /// The available memory, bytes.
     pub available: u64,
-    /// How the estimate was formed (`10⁹ spheres × 320 B + 8 MiB`).
+    /// How the estimate was formed (`10⁹ spheres × 300 B + 8 MiB`).
     pub what: String,
     /// The option or variable that skips the check.
     pub override_hint: String,

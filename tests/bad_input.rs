@@ -989,9 +989,9 @@ fn hostile_cases() -> Vec<Case> {
     let available = available_memory().unwrap_or(f64::INFINITY);
     let memory = [
         (
-            4e9 * 320.0,
+            4e9 * 300.0,
             Case::scene(
-                "4·10⁹ spheres (1.3 TB)",
+                "4·10⁹ spheres (1.2 TB)",
                 Parts::particles("count = 4000000000\ndiameter = 1e-3\npacking_fraction = 0.3"),
                 vec![
                     "needs about",
@@ -1002,9 +1002,9 @@ fn hostile_cases() -> Vec<Case> {
             ),
         ),
         (
-            1e9 * 320.0,
+            1e9 * 300.0,
             Case::scene(
-                "10⁹ spheres in components (320 GB)",
+                "10⁹ spheres in components (300 GB)",
                 Parts::particles(
                     "components = [{ count = 500000000, diameter = 1e-3 }, \
                      { count = 500000000, diameter = 2e-3 }]\npacking_fraction = 0.3",

@@ -434,10 +434,10 @@ fn summary_reports_memory_and_reference_fractions() {
     );
     let s = tp.summary();
     // The measured peak of a sphere run per particle, plus the process's base of 8 MiB.
-    assert_eq!(BYTES_PER_PARTICLE, 320);
+    assert_eq!(BYTES_PER_PARTICLE, 300);
     assert_eq!(
         s.estimated_memory_bytes,
-        s.expected_count.ceil() as u64 * 320 + 8 * 1024 * 1024
+        s.expected_count.ceil() as u64 * 300 + 8 * 1024 * 1024
     );
     assert_eq!(s.rsa_reachable_phi_eff, RSA_REACHABLE_PHI_EFF);
     assert_eq!(s.edmd_reachable_phi_eff, EDMD_REACHABLE_PHI_EFF);

@@ -34,7 +34,9 @@ pub const MAGIC: &[u8] = b"densepack-checkpoint\n";
 /// 6: a neighbour-list sphere's centre and radius are one record.
 /// 7: a stage in progress stores its current growth rate and growth clock (pressure-adaptive
 /// rates).
-pub const CHECKPOINT_VERSION: u32 = 7;
+/// 8: the cell grid links its members one way (no `prev`); particles keep two local events,
+/// so a run's events differ from version 7's.
+pub const CHECKPOINT_VERSION: u32 = 8;
 
 /// Everything of a checkpoint but the kernel.
 #[derive(Clone, Debug, Serialize, Deserialize)]

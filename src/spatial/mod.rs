@@ -13,8 +13,10 @@
 //! diameters 0.5–16 mm, ratio 32) a single level would need cells as wide as the largest
 //! body, holding thousands of small ones; the levels keep every cell's population O(1).
 //!
-//! Members are kept in intrusive doubly linked lists (`head` per cell, `next`/`prev` per
-//! body): insert, remove and move are `O(1)` and need no allocation.
+//! Members are kept in intrusive singly linked lists (`head` per cell, `next` per body):
+//! insert is `O(1)`, remove walks the body's cell, and neither allocates. A cell holds `O(1)`
+//! bodies (one or two in a dense packing), so the walk costs about what a `prev` link would,
+//! without its 4 bytes per body (BENCHMARKS.md, "Memory").
 
 use crate::shape::Vec3;
 use smallvec::SmallVec;
@@ -40,7 +42,6 @@ pub struct CellGrid {
     periodic: [bool; 3],
     head: Vec<u32>,
     next: Vec<u32>,
-    prev: Vec<u32>,
     cell_of: Vec<u32>,
 }
 
@@ -111,7 +112,6 @@ impl CellGrid {
             periodic,
             head: vec![NONE; first as usize],
             next: vec![NONE; n],
-            prev: vec![NONE; n],
             cell_of: vec![NONE; n],
         }
     }
@@ -181,31 +181,30 @@ impl CellGrid {
         self.cell_of[i]
     }
 
-    /// Registers body `i` in `cell`.
+    /// Registers body `i` in `cell`, first among its members.
     #[inline]
     pub fn insert(&mut self, i: usize, cell: u32) {
-        let h = self.head[cell as usize];
-        self.next[i] = h;
-        self.prev[i] = NONE;
-        if h != NONE {
-            self.prev[h as usize] = i as u32;
-        }
+        self.next[i] = self.head[cell as usize];
         self.head[cell as usize] = i as u32;
         self.cell_of[i] = cell;
     }
 
-    /// Unregisters body `i`.
+    /// Unregisters body `i`; the other members of its cell keep their order.
     #[inline]
     pub fn remove(&mut self, i: usize) {
-        let (p, n) = (self.prev[i], self.next[i]);
-        if p != NONE {
-            self.next[p as usize] = n;
+        let cell = self.cell_of[i] as usize;
+        let after = self.next[i];
+        let mut at = self.head[cell];
+        if at == i as u32 {
+            self.head[cell] = after;
         } else {
-            self.head[self.cell_of[i] as usize] = n;
+            // `i` is a member of `cell`, so the walk meets it before the end.
+            while self.next[at as usize] != i as u32 {
+                at = self.next[at as usize];
+            }
+            self.next[at as usize] = after;
         }
-        if n != NONE {
-            self.prev[n as usize] = p;
-        }
+        self.next[i] = NONE;
         self.cell_of[i] = NONE;
     }
 
@@ -487,17 +486,28 @@ mod tests {
         assert_eq!(g.neighbourhood(0).as_slice().len(), 8);
     }
 
+    /// Members come newest first; removing the head, a middle member or the last one
+    /// keeps the others in order, and the cell of a removed body is none.
     #[test]
-    fn members_follow_inserts_and_removes() {
-        let mut g = CellGrid::new(Vec3::zeros(), Vec3::new(3.0, 3.0, 3.0), [true; 3], 1.0, 4);
-        for i in 0..4 {
+    fn members_follow_inserts_and_removes_in_order() {
+        let mut g = CellGrid::new(Vec3::zeros(), Vec3::new(3.0, 3.0, 3.0), [true; 3], 1.0, 6);
+        for i in 0..5 {
             g.insert(i, 5);
         }
+        g.insert(5, 7);
+        assert_eq!(g.members(5).collect::<Vec<_>>(), vec![4, 3, 2, 1, 0]);
         g.remove(2);
-        g.remove(3);
-        let mut m: Vec<_> = g.members(5).collect();
-        m.sort();
-        assert_eq!(m, vec![0, 1]);
+        assert_eq!(g.members(5).collect::<Vec<_>>(), vec![4, 3, 1, 0]);
+        g.remove(4);
+        assert_eq!(g.members(5).collect::<Vec<_>>(), vec![3, 1, 0]);
+        g.remove(0);
+        assert_eq!(g.members(5).collect::<Vec<_>>(), vec![3, 1]);
+        assert_eq!(g.cell_of(0), NONE);
+        g.insert(4, 5);
+        g.remove(5);
+        assert_eq!(g.members(5).collect::<Vec<_>>(), vec![4, 3, 1]);
+        assert_eq!(g.members(7).count(), 0);
+        assert_eq!(g.cell_of(4), 5);
     }
 
     /// Every body whose registered point is within the reach (minimum image on periodic
