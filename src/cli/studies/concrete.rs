@@ -120,31 +120,96 @@ fn edmd_variant(scene: &str, phi: f64) -> String {
     )
 }
 
+/// One cube of the Fuller study: its edge, the seeds per step, the step of φ_eff, the last
+/// φ_eff tried and, per method, the first φ_eff of its sweep.
+struct FullerCube {
+    edge: f64,
+    seeds: u64,
+    step: f64,
+    last: f64,
+    /// `(RSA N^F = 10⁵, RSA N^F = 10⁶, EDMD)` first fractions; `None` leaves the method out.
+    first: [Option<f64>; 3],
+}
+
 /// Case 1 (Fig. 7): success rate ψ and CPU time per success t_ψ against φ_eff for RSA
-/// (N^F = 10⁵, 10⁶) and EDMD, per cube; seeds 1…runs are the size distributions, the same
-/// for every method.
+/// (N^F = 10⁵, 10⁶) and EDMD, per cube, on a coarse grid (steps of 2.5 %, 10 and 5 seeds;
+/// about 20 CPU minutes). Quick: the 32 mm cube, RSA N^F = 10⁵ and EDMD from 0.60 in steps
+/// of 5 %, 2 seeds.
 pub fn fuller(ctx: &StudyContext) -> StudyOutput {
-    let quick = ctx.quick;
-    // (cube edge, φ_eff values, seeds)
-    let grid: Vec<(f64, Vec<f64>, u64)> = if quick {
-        vec![(32.0, vec![0.60, 0.65], 2)]
+    if ctx.quick {
+        fuller_rows(&[FullerCube {
+            edge: 32.0,
+            seeds: 2,
+            step: 0.05,
+            last: 0.65,
+            first: [Some(0.60), None, Some(0.60)],
+        }])
     } else {
-        vec![
-            (32.0, steps(0.55, 0.70, 0.025), 10),
-            (80.0, steps(0.60, 0.70, 0.025), 5),
-        ]
-    };
-    let rsa_limits: &[u64] = if quick {
-        &[100_000]
+        fuller_rows(&[
+            FullerCube {
+                edge: 32.0,
+                seeds: 10,
+                step: 0.025,
+                last: 0.70,
+                first: [Some(0.55); 3],
+            },
+            FullerCube {
+                edge: 80.0,
+                seeds: 5,
+                step: 0.025,
+                last: 0.70,
+                first: [Some(0.60); 3],
+            },
+        ])
+    }
+}
+
+/// Case 1 on the paper's grid: steps of 0.5 % and 50 size distributions per step, both cubes
+/// (hours on two cores). Each sweep starts a little below the highest φ_eff at which the
+/// coarse grid of [`fuller`] gives ψ = 1 for that method and cube (BENCHMARKS.md, case 1);
+/// the paper's rows below it, from 55 %, are all successes. Quick: the 32 mm cube, EDMD at
+/// 0.62 and 0.625, 2 seeds.
+pub fn fuller_fine(ctx: &StudyContext) -> StudyOutput {
+    if ctx.quick {
+        fuller_rows(&[FullerCube {
+            edge: 32.0,
+            seeds: 2,
+            step: 0.005,
+            last: 0.625,
+            first: [None, None, Some(0.62)],
+        }])
     } else {
-        &[100_000, 1_000_000]
-    };
+        fuller_rows(&[
+            FullerCube {
+                edge: 32.0,
+                seeds: 50,
+                step: 0.005,
+                last: 0.72,
+                first: [Some(0.585), Some(0.61), Some(0.62)],
+            },
+            FullerCube {
+                edge: 80.0,
+                seeds: 50,
+                step: 0.005,
+                last: 0.72,
+                first: [Some(0.61), Some(0.635), Some(0.68)],
+            },
+        ])
+    }
+}
+
+/// The Fuller sweeps of `cubes`: per cube and method, φ_eff from the method's first fraction
+/// in the cube's steps until no run succeeds ([`sweep`]); seeds 1…runs are the size
+/// distributions, the same for every method.
+fn fuller_rows(cubes: &[FullerCube]) -> StudyOutput {
     let mut table = Table::new(
         "Concrete case 1: Fuller q = 0.5, 2–16 mm, walled cube (paper 001, Fig. 7)",
-        "ψ = successful runs / runs, t_ψ = CPU seconds of all runs / successes (∞: none), seeds \
-         1…runs. RSA at true size, N^F consecutive rejections of one grain fail it. EDMD: RSA at \
-         δ = 0.9, relative rate 0.02 to φ_eff − 0.05, then 0.0005 to full size; fails on \
-         Δt < 10⁻⁶ over 1000 events or after 1200 s (`fuller_80mm_walls.toml`).",
+        "ψ = successful runs / runs, t_ψ = CPU seconds of all runs / successes (∞: none; each \
+         run's own thread, runs in parallel, one per core), seeds 1…runs. Each method steps \
+         φ_eff from its first fraction until no run succeeds. RSA at true size, N^F \
+         consecutive rejections of one grain fail it. EDMD: RSA at δ = 0.9, relative rate 0.02 \
+         to φ_eff − 0.05, then 0.0005 to full size; fails on Δt < 10⁻⁶ over 1000 events or \
+         after 1200 s (`fuller_80mm_walls.toml`).",
         &[
             "cube mm",
             "φ_eff",
@@ -166,61 +231,55 @@ pub fn fuller(ctx: &StudyContext) -> StudyOutput {
         ],
     );
     let mut series: Vec<Series> = Vec::new();
-    for (edge, fractions, seeds) in &grid {
-        let edge = *edge;
-        let mut highest: Vec<(String, f64)> = Vec::new();
-        for &phi in fractions {
-            let sized = set(
+    for cube in cubes {
+        let edge = cube.edge;
+        let sized = |phi: f64| {
+            set(
                 &set(FULLER_SCENE, "effective_fraction", &format!("{phi}")),
                 "size",
                 &format!("[{edge:?}, {edge:?}, {edge:?}]"),
-            );
-            let seeded = |seed: u64, text: &str| set(text, "seed", &seed.to_string());
-            let mut methods: Vec<(String, Vec<Run>)> = rsa_limits
-                .iter()
-                .map(|&limit| {
-                    let scene = rsa_variant(&sized, limit);
-                    let runs = (1..=*seeds).map(|k| run(&seeded(k, &scene))).collect();
-                    (format!("RSA N^F = {limit:.0e}"), runs)
-                })
-                .collect();
-            let scene = edmd_variant(&sized, phi);
-            methods.push((
-                "EDMD".into(),
-                (1..=*seeds).map(|k| run(&seeded(k, &scene))).collect(),
-            ));
-            for (method, runs) in methods {
+            )
+        };
+        // Each method with its RSA rejection limit N^F (`None`: EDMD).
+        let methods = [
+            ("RSA N^F = 1e5", Some(100_000)),
+            ("RSA N^F = 1e6", Some(1_000_000)),
+            ("EDMD", None),
+        ];
+        for ((method, limit), first) in methods.into_iter().zip(cube.first) {
+            let Some(first) = first else { continue };
+            let scene_at = |phi: f64| match limit {
+                Some(limit) => rsa_variant(&sized(phi), limit),
+                None => edmd_variant(&sized(phi), phi),
+            };
+            let tag = format!("fuller {edge} {method}");
+            let mut points = Vec::new();
+            let mut highest = None;
+            for (phi, runs) in sweep(first, cube.last, cube.step, cube.seeds, scene_at, &tag) {
                 let (psi, t) = success_row(&runs, |r| r.cpu_seconds);
                 table.row(vec![
                     format!("{edge}"),
                     format!("{phi}"),
-                    method.clone(),
-                    seeds.to_string(),
+                    method.into(),
+                    cube.seeds.to_string(),
                     format!("{psi:.2}"),
                     format!("{t:.2}"),
                     failure_kinds(&runs),
                 ]);
-                eprintln!("fuller {edge} {phi} {method}: ψ {psi:.2} t {t:.2}");
                 if psi >= 0.5 {
-                    match highest.iter_mut().find(|(m, _)| *m == method) {
-                        Some((_, h)) => *h = h.max(phi),
-                        None => highest.push((method.clone(), phi)),
-                    }
+                    highest = Some(phi);
                 }
-                let label = format!("{edge} mm, {method}");
-                match series.iter_mut().find(|s| s.label == label) {
-                    Some(s) => s.points.push((phi, psi)),
-                    None => series.push(Series::line(label, vec![(phi, psi)])),
-                }
+                points.push((phi, psi));
             }
-        }
-        for (method, phi) in highest {
-            summary.row(vec![
-                format!("{edge}"),
-                method,
-                format!("{phi}"),
-                fuller_paper(edge).into(),
-            ]);
+            if let Some(phi) = highest {
+                summary.row(vec![
+                    format!("{edge}"),
+                    method.into(),
+                    format!("{phi}"),
+                    fuller_paper(edge).into(),
+                ]);
+            }
+            series.push(Series::line(format!("{edge} mm, {method}"), points));
         }
     }
     let mut figure = Figure::new("Fuller q = 0.5: success rate", "φ_eff", "success rate ψ");
@@ -230,6 +289,35 @@ pub fn fuller(ctx: &StudyContext) -> StudyOutput {
         csv: table,
         figure,
     }
+}
+
+/// The runs of a success-rate sweep: the scenes `scene_at(φ)` with seeds 1…`seeds`, all runs
+/// of a step in parallel ([`run_parallel`]), at φ = `first`, `first + step`, … up to `last`,
+/// ending after the first step where no run succeeds. Prints each step's ψ and t_ψ after
+/// `tag` on stderr.
+fn sweep(
+    first: f64,
+    last: f64,
+    step: f64,
+    seeds: u64,
+    scene_at: impl Fn(f64) -> String,
+    tag: &str,
+) -> Vec<(f64, Vec<Run>)> {
+    let mut rows = Vec::new();
+    for phi in steps(first, last, step) {
+        let scene = scene_at(phi);
+        let scenes: Vec<String> = (1..=seeds)
+            .map(|seed| set(&scene, "seed", &seed.to_string()))
+            .collect();
+        let runs = run_parallel(&scenes);
+        let (psi, t) = success_row(&runs, |r| r.cpu_seconds);
+        eprintln!("{tag} {phi}: ψ {psi:.2} t {t:.2}");
+        rows.push((phi, runs));
+        if psi == 0.0 {
+            break;
+        }
+    }
+    rows
 }
 
 /// The distinct [`failure_kind`]s of the failed runs of `runs`, sorted and joined, or "—".
@@ -325,9 +413,9 @@ pub fn gap(ctx: &StudyContext) -> StudyOutput {
     for (method, first, last) in sweeps {
         let mut points = Vec::new();
         let mut highest = None;
-        for phi in steps(first, last, 0.005) {
+        let scene_at = |phi: f64| {
             let edmd = set(GAP_SCENE, "mixture_fraction", &format!("{phi}"));
-            let scene = if method == "RSA" {
+            if method == "RSA" {
                 rsa_variant(&edmd, 1_000_000).replacen(
                     "[particles]\n",
                     "[particles]\ngap = 1.0\nwall_gap = 0.0\n",
@@ -335,11 +423,16 @@ pub fn gap(ctx: &StudyContext) -> StudyOutput {
                 )
             } else {
                 edmd
-            };
-            let scenes: Vec<String> = (1..=seeds)
-                .map(|seed| set(&scene, "seed", &seed.to_string()))
-                .collect();
-            let runs = run_parallel(&scenes);
+            }
+        };
+        for (phi, runs) in sweep(
+            first,
+            last,
+            0.005,
+            seeds,
+            scene_at,
+            &format!("gap {method}"),
+        ) {
             let (psi, t) = success_row(&runs, |r| r.cpu_seconds);
             let ok: Vec<&Run> = runs.iter().filter(|r| r.ok).collect();
             let events = ok.iter().map(|r| r.events as f64).sum::<f64>() / ok.len().max(1) as f64;
@@ -365,10 +458,6 @@ pub fn gap(ctx: &StudyContext) -> StudyOutput {
                 },
                 failure_kinds(&runs),
             ]);
-            eprintln!("gap {method} {phi}: ψ {psi:.2} t {t:.2}");
-            if psi == 0.0 {
-                break;
-            }
         }
         summary.row(vec![
             method.into(),

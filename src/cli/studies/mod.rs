@@ -202,6 +202,13 @@ pub const STUDIES: &[Study] = &[
         default: true,
         run: concrete::fuller,
     },
+    Study {
+        name: "fuller-fine",
+        summary:
+            "concrete case 1 on the paper's grid: 0.5 % steps, 50 seeds (Fig. 7); opt-in, hours",
+        default: false,
+        run: concrete::fuller_fine,
+    },
 ];
 
 /// The study called `name`.
