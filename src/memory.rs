@@ -7,7 +7,7 @@
 //! such a job is refused before it starts, with the estimate and the limit.
 
 /// Peak resident memory of a sphere run per particle: seeding, kernel, verification and
-/// the packing record. Measured 242 B at 10⁶ spheres above the empty process (247.5 B for
+/// the packing record. Measured 242 B at 10⁶ spheres above the empty process (247.2 B for
 /// the whole process; calendar queue, `densepack bench-child-memory 1000000 calendar`,
 /// BENCHMARKS.md "Memory"), 283 B with the heap queue, 254 B at 2·10⁵; smaller runs carry
 /// fixed buffers as well, well inside [`BASE_BYTES`]. Rounded up, with room for a host

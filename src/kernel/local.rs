@@ -4,10 +4,10 @@ use crate::boundary::WallId;
 
 /// Events kept per particle. A particle's predictions beyond the earliest few are dropped and
 /// recomputed when the kept ones are used up (the list remembers that it was truncated).
-/// Two keep a list in 32 bytes, which never straddle a cache line, for 1.9 % of events
-/// re-predicting a particle in the φ = 0.5 fluid at 10⁵ spheres (0.17 % with three) and
-/// 0.46 % on the way to jamming (0.02 %): about 1 % more prediction passes for 16 B less
-/// per particle, at equal speed (BENCHMARKS.md, "Defaults").
+/// Two keep a list in 32 bytes (48 with three), for 1.9 % of events re-predicting a
+/// particle in the φ = 0.5 fluid at 10⁵ spheres (0.17 % with three) and 0.46 % on the way
+/// to jamming (0.02 %): about 1 % more prediction passes for 16 B less per particle, at
+/// equal speed (BENCHMARKS.md, "Defaults").
 pub(super) const LOCAL_CAPACITY: usize = 2;
 
 /// What an event does.
@@ -141,8 +141,8 @@ fn earliest_of(events: &[LocalEvent; LOCAL_CAPACITY]) -> Option<(usize, LocalEve
 
 /// The local event lists of all particles, stored as two arrays: the events (32 bytes per
 /// particle) and the truncation flags (one byte). One array of [`LocalList`] would pad each
-/// entry to 40 bytes for its flag and let entries straddle cache lines; at 10⁶ particles the
-/// split saves 7 bytes per particle of peak memory (the target is 250 B per particle).
+/// entry to 40 bytes for its flag; at 10⁶ particles the split saves 7 bytes per particle of
+/// peak memory (the target is 250 B per particle).
 #[derive(Clone, Debug)]
 pub(super) struct LocalLists {
     events: Vec<[LocalEvent; LOCAL_CAPACITY]>,
@@ -261,8 +261,7 @@ mod tests {
             assert_eq!(LocalEvent::new(1.0, kind).kind(), kind);
         }
         assert_eq!(std::mem::size_of::<LocalEvent>(), 16);
-        // The stored part of a list is its events alone (the flag lives in its own array),
-        // 32 bytes: half a cache line.
+        // The stored part of a list is its events alone (the flag lives in its own array).
         assert_eq!(std::mem::size_of::<[LocalEvent; LOCAL_CAPACITY]>(), 32);
     }
 }
