@@ -90,6 +90,7 @@ fn main() -> ExitCode {
         context: StudyContext {
             quick,
             memory_child: vec![exe.to_string_lossy().into_owned(), "--child-memory".into()],
+            journal: None,
         },
     };
     match run_report(&options) {

@@ -24,6 +24,7 @@ fn bench(c: &mut Criterion) {
     let context = StudyContext {
         quick: false,
         memory_child: Vec::new(),
+        journal: None,
     };
     println!("{}", predictor(&context).markdown);
     let mut group = c.benchmark_group("ellipsoid_pair_prediction");

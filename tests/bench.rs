@@ -233,3 +233,96 @@ fn bench_rejects_an_unknown_study_naming_it_and_the_allowed_ones() {
     assert!(stderr.contains("scaling, equilibrium"), "{stderr}");
     assert!(!dir.join("r").exists(), "nothing written on bad input");
 }
+
+/// The records of `runs.jsonl`, one JSON object per line.
+fn journal_lines(path: &std::path::Path) -> Vec<serde_json::Value> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: {l}")))
+        .collect()
+}
+
+/// The ψ column of a success-rate study's CSV.
+fn success_rates(csv: &std::path::Path) -> Vec<String> {
+    column(&parse_csv(&std::fs::read_to_string(csv).unwrap()), "ψ")
+}
+
+#[test]
+fn bench_resume_reuses_the_recorded_runs_of_this_build_only() {
+    let dir = temp_dir("bench-resume");
+    let out = dir.join("report");
+    let out_arg = out.to_str().unwrap();
+    let bench = |resume: bool| {
+        let mut args = vec![
+            "bench",
+            "--quick",
+            "--only",
+            "fuller-fine",
+            "--out",
+            out_arg,
+        ];
+        if resume {
+            args.push("--resume");
+        }
+        let run = densepack(&args);
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        String::from_utf8_lossy(&run.stderr).into_owned()
+    };
+    bench(false);
+    let journal = out.join("runs.jsonl");
+    let csv = out.join("fuller-fine.csv");
+    let fresh = journal_lines(&journal);
+    let fresh_rates = success_rates(&csv);
+    // Quick fuller-fine: EDMD in the 32 mm cube, two seeds per step.
+    assert!(fresh.len() == 2 || fresh.len() == 4, "{fresh:?}");
+    for line in &fresh {
+        assert!(line["build"]
+            .as_str()
+            .unwrap()
+            .starts_with(env!("CARGO_PKG_VERSION")));
+        assert!(line["scene"].as_str().unwrap().contains("seed = "));
+        assert!(line["outcome"]["cpu_seconds"].as_f64().unwrap() > 0.0);
+    }
+
+    // Every recorded outcome inverted, a line of another build and a line cut short: a resume
+    // must report the inverted outcomes (so it re-used them) and ignore the other two.
+    let mut text = String::new();
+    for line in &fresh {
+        let mut flipped = line.clone();
+        let ok = flipped["outcome"]["ok"].as_bool().unwrap();
+        flipped["outcome"]["ok"] = (!ok).into();
+        flipped["outcome"]["message"] = "stalled".into();
+        text += &format!("{flipped}\n");
+    }
+    let mut foreign = fresh[0].clone();
+    foreign["build"] = "0.0.0 elsewhere".into();
+    text += &format!("{foreign}\n{{\"build\": \"cut");
+    std::fs::write(&journal, text).unwrap();
+    let stderr = bench(true);
+    assert!(
+        stderr.contains(&format!("resume: {} runs of this build", fresh.len()))
+            && stderr.contains("1 of other builds and 1 unreadable lines"),
+        "{stderr}"
+    );
+    let resumed_rates = success_rates(&csv);
+    let inverted = |psi: &str| format!("{:.2}", 1.0 - psi.parse::<f64>().unwrap());
+    assert_eq!(resumed_rates[0], inverted(&fresh_rates[0]));
+    // No recorded scene ran again: each is still in one line of this build (the first also
+    // in `foreign`).
+    let lines = std::fs::read_to_string(&journal).unwrap();
+    for (k, line) in fresh.iter().enumerate() {
+        let scene = serde_json::to_string(&line["scene"]).unwrap();
+        let copies = if k == 0 { 2 } else { 1 };
+        assert_eq!(lines.matches(scene.as_str()).count(), copies, "{scene}");
+    }
+
+    // Without --resume the journal starts afresh and the true outcomes come back.
+    bench(false);
+    assert_eq!(journal_lines(&journal).len(), fresh.len());
+    assert_eq!(success_rates(&csv), fresh_rates);
+}

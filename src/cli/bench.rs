@@ -1,8 +1,8 @@
-//! `densepack bench [--quick] [--only STUDY,...] [--out DIR]`: the macro benchmark suite of
-//! [`super::studies`], written as a report directory (`BENCHMARKS.md`, `<study>.csv`,
-//! `<study>.svg`).
+//! `densepack bench [--quick] [--only STUDY,...] [--out DIR] [--resume]`: the macro benchmark
+//! suite of [`super::studies`], written as a report directory (`BENCHMARKS.md`, `<study>.csv`,
+//! `<study>.svg`, and the run journal `runs.jsonl` that `--resume` reads).
 
-use super::studies::{run_report, select, ReportOptions, StudyContext, STUDIES};
+use super::studies::{run_report, select, Journal, ReportOptions, StudyContext, STUDIES};
 use clap::Args;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -22,6 +22,10 @@ pub struct BenchArgs {
     /// Output directory for BENCHMARKS.md, <study>.csv and <study>.svg (created if missing).
     #[arg(long, default_value = "bench-report")]
     out: PathBuf,
+    /// Re-use the runs that an interrupted `bench` of this same build recorded in
+    /// DIR/runs.jsonl (the concrete studies'); without it that file is started afresh.
+    #[arg(long)]
+    resume: bool,
     /// List the studies and exit.
     #[arg(long)]
     list: bool,
@@ -61,6 +65,15 @@ pub fn run(args: &BenchArgs) -> ExitCode {
             return ExitCode::from(1);
         }
     };
+    let journal = match std::fs::create_dir_all(&args.out)
+        .and_then(|()| Journal::open(&args.out.join(Journal::FILE), args.resume))
+    {
+        Ok(j) => j,
+        Err(e) => {
+            errln!("error: --out {}: {e}", args.out.display());
+            return ExitCode::from(1);
+        }
+    };
     let options = ReportOptions {
         studies: studies.iter().map(|s| s.name).collect(),
         out: args.out.clone(),
@@ -68,6 +81,7 @@ pub fn run(args: &BenchArgs) -> ExitCode {
         context: StudyContext {
             quick: args.quick,
             memory_child: vec![exe, CHILD_MEMORY.into()],
+            journal: Some(std::sync::Arc::new(journal)),
         },
     };
     match run_report(&options) {

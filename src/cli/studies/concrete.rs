@@ -18,7 +18,7 @@
 //!   the 80 mm walled cube, RSA at true size, grown (relative rate 0.05) to reduced pressure
 //!   10¹²: events/s, and the smallest gaps to pairs and walls by the independent check.
 
-use super::{mean_sd, Figure, Series, StudyContext, StudyOutput, Table};
+use super::{mean_sd, Figure, Journal, Series, StudyContext, StudyOutput, Table};
 use densepack::io::scene::Scene;
 use densepack::run::run_scene;
 use std::time::Instant;
@@ -46,14 +46,23 @@ fn set(scene: &str, key: &str, value: &str) -> String {
         + "\n"
 }
 
-/// Outcome of one run: success, CPU seconds, events, the packing's min_gap.
+/// Outcome of one run: success, CPU seconds, events, the packing's min_gap. Recorded in the
+/// [`Journal`] (a failed run's NaN gap as `null`).
+#[derive(serde::Serialize, serde::Deserialize)]
 struct Run {
     ok: bool,
     /// CPU seconds of this thread (the machine may be shared).
     cpu_seconds: f64,
     events: u64,
+    #[serde(deserialize_with = "nan_from_null")]
     min_gap: f64,
     message: String,
+}
+
+/// Reads a float written by `serde_json`, which writes NaN as `null`.
+fn nan_from_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    use serde::Deserialize as _;
+    Option::<f64>::deserialize(d).map(|v| v.unwrap_or(f64::NAN))
 }
 
 fn run(text: &str) -> Run {
@@ -137,30 +146,36 @@ struct FullerCube {
 /// of 5 %, 2 seeds.
 pub fn fuller(ctx: &StudyContext) -> StudyOutput {
     if ctx.quick {
-        fuller_rows(&[FullerCube {
-            edge: 32.0,
-            seeds: 2,
-            step: 0.05,
-            last: 0.65,
-            first: [Some(0.60), None, Some(0.60)],
-        }])
-    } else {
-        fuller_rows(&[
-            FullerCube {
+        fuller_rows(
+            ctx,
+            &[FullerCube {
                 edge: 32.0,
-                seeds: 10,
-                step: 0.025,
-                last: 0.70,
-                first: [Some(0.55); 3],
-            },
-            FullerCube {
-                edge: 80.0,
-                seeds: 5,
-                step: 0.025,
-                last: 0.70,
-                first: [Some(0.60); 3],
-            },
-        ])
+                seeds: 2,
+                step: 0.05,
+                last: 0.65,
+                first: [Some(0.60), None, Some(0.60)],
+            }],
+        )
+    } else {
+        fuller_rows(
+            ctx,
+            &[
+                FullerCube {
+                    edge: 32.0,
+                    seeds: 10,
+                    step: 0.025,
+                    last: 0.70,
+                    first: [Some(0.55); 3],
+                },
+                FullerCube {
+                    edge: 80.0,
+                    seeds: 5,
+                    step: 0.025,
+                    last: 0.70,
+                    first: [Some(0.60); 3],
+                },
+            ],
+        )
     }
 }
 
@@ -171,37 +186,43 @@ pub fn fuller(ctx: &StudyContext) -> StudyOutput {
 /// 0.62 and 0.625, 2 seeds.
 pub fn fuller_fine(ctx: &StudyContext) -> StudyOutput {
     if ctx.quick {
-        fuller_rows(&[FullerCube {
-            edge: 32.0,
-            seeds: 2,
-            step: 0.005,
-            last: 0.625,
-            first: [None, None, Some(0.62)],
-        }])
-    } else {
-        fuller_rows(&[
-            FullerCube {
+        fuller_rows(
+            ctx,
+            &[FullerCube {
                 edge: 32.0,
-                seeds: 50,
+                seeds: 2,
                 step: 0.005,
-                last: 0.72,
-                first: [Some(0.585), Some(0.61), Some(0.62)],
-            },
-            FullerCube {
-                edge: 80.0,
-                seeds: 50,
-                step: 0.005,
-                last: 0.72,
-                first: [Some(0.61), Some(0.635), Some(0.68)],
-            },
-        ])
+                last: 0.625,
+                first: [None, None, Some(0.62)],
+            }],
+        )
+    } else {
+        fuller_rows(
+            ctx,
+            &[
+                FullerCube {
+                    edge: 32.0,
+                    seeds: 50,
+                    step: 0.005,
+                    last: 0.72,
+                    first: [Some(0.585), Some(0.61), Some(0.62)],
+                },
+                FullerCube {
+                    edge: 80.0,
+                    seeds: 50,
+                    step: 0.005,
+                    last: 0.72,
+                    first: [Some(0.61), Some(0.635), Some(0.68)],
+                },
+            ],
+        )
     }
 }
 
 /// The Fuller sweeps of `cubes`: per cube and method, φ_eff from the method's first fraction
 /// in the cube's steps until no run succeeds ([`sweep`]); seeds 1…runs are the size
 /// distributions, the same for every method.
-fn fuller_rows(cubes: &[FullerCube]) -> StudyOutput {
+fn fuller_rows(ctx: &StudyContext, cubes: &[FullerCube]) -> StudyOutput {
     let mut table = Table::new(
         "Concrete case 1: Fuller q = 0.5, 2–16 mm, walled cube (paper 001, Fig. 7)",
         "ψ = successful runs / runs, t_ψ = CPU seconds of all runs / successes (∞: none; each \
@@ -255,7 +276,9 @@ fn fuller_rows(cubes: &[FullerCube]) -> StudyOutput {
             let tag = format!("fuller {edge} {method}");
             let mut points = Vec::new();
             let mut highest = None;
-            for (phi, runs) in sweep(first, cube.last, cube.step, cube.seeds, scene_at, &tag) {
+            let grid = (first, cube.last, cube.step);
+            let journal = ctx.journal.as_deref();
+            for (phi, runs) in sweep(journal, grid, cube.seeds, scene_at, &tag) {
                 let (psi, t) = success_row(&runs, |r| r.cpu_seconds);
                 table.row(vec![
                     format!("{edge}"),
@@ -292,13 +315,12 @@ fn fuller_rows(cubes: &[FullerCube]) -> StudyOutput {
 }
 
 /// The runs of a success-rate sweep: the scenes `scene_at(φ)` with seeds 1…`seeds`, all runs
-/// of a step in parallel ([`run_parallel`]), at φ = `first`, `first + step`, … up to `last`,
-/// ending after the first step where no run succeeds. Prints each step's ψ and t_ψ after
-/// `tag` on stderr.
+/// of a step in parallel ([`run_parallel`], recorded in `journal`), at φ = `first`,
+/// `first + step`, … up to `last`, ending after the first step where no run succeeds. Prints
+/// each step's ψ and t_ψ after `tag` on stderr.
 fn sweep(
-    first: f64,
-    last: f64,
-    step: f64,
+    journal: Option<&Journal>,
+    (first, last, step): (f64, f64, f64),
     seeds: u64,
     scene_at: impl Fn(f64) -> String,
     tag: &str,
@@ -309,7 +331,7 @@ fn sweep(
         let scenes: Vec<String> = (1..=seeds)
             .map(|seed| set(&scene, "seed", &seed.to_string()))
             .collect();
-        let runs = run_parallel(&scenes);
+        let runs = run_parallel(journal, &scenes);
         let (psi, t) = success_row(&runs, |r| r.cpu_seconds);
         eprintln!("{tag} {phi}: ψ {psi:.2} t {t:.2}");
         rows.push((phi, runs));
@@ -426,9 +448,8 @@ pub fn gap(ctx: &StudyContext) -> StudyOutput {
             }
         };
         for (phi, runs) in sweep(
-            first,
-            last,
-            0.005,
+            ctx.journal.as_deref(),
+            (first, last, 0.005),
             seeds,
             scene_at,
             &format!("gap {method}"),
@@ -479,15 +500,28 @@ pub fn gap(ctx: &StudyContext) -> StudyOutput {
 /// Runs every scene of `scenes`, one per core at a time, and returns their outcomes in the
 /// same order. Each run gets a one-thread rayon pool of its own, so that its seeding (which
 /// otherwise fans out over the global pool) stays on the thread whose CPU time [`run`]
-/// measures.
-fn run_parallel(scenes: &[String]) -> Vec<Run> {
+/// measures. A scene `journal` holds the outcome of (an interrupted attempt's) is not run
+/// again; each new outcome is recorded there as it finishes.
+fn run_parallel(journal: Option<&Journal>, scenes: &[String]) -> Vec<Run> {
     use std::sync::atomic::{AtomicUsize, Ordering};
     use std::sync::Mutex;
+    let results: Mutex<Vec<Option<Run>>> = Mutex::new(
+        scenes
+            .iter()
+            .map(|text| journal.and_then(|j| j.get(text)))
+            .collect(),
+    );
+    let pending: Vec<usize> = results
+        .lock()
+        .expect("not shared yet")
+        .iter()
+        .enumerate()
+        .filter_map(|(k, r)| r.is_none().then_some(k))
+        .collect();
     let next = AtomicUsize::new(0);
-    let results: Mutex<Vec<Option<Run>>> = Mutex::new((0..scenes.len()).map(|_| None).collect());
     let workers = std::thread::available_parallelism()
         .map_or(1, |n| n.get())
-        .min(scenes.len());
+        .min(pending.len());
     std::thread::scope(|scope| {
         for _ in 0..workers {
             scope.spawn(|| {
@@ -495,10 +529,11 @@ fn run_parallel(scenes: &[String]) -> Vec<Run> {
                     .num_threads(1)
                     .build()
                     .expect("a one-thread pool");
-                loop {
-                    let k = next.fetch_add(1, Ordering::Relaxed);
-                    let Some(text) = scenes.get(k) else { break };
-                    let r = pool.install(|| run(text));
+                while let Some(&k) = pending.get(next.fetch_add(1, Ordering::Relaxed)) {
+                    let r = pool.install(|| run(&scenes[k]));
+                    if let Some(j) = journal {
+                        j.record(&scenes[k], &r);
+                    }
                     results.lock().expect("no worker panicked")[k] = Some(r);
                 }
             });
@@ -522,9 +557,9 @@ const GAPMAX_PRESSURE: &str = "1e6";
 /// d_min = 4 mm, λ = 0.5, one seed.
 pub fn gapmax(ctx: &StudyContext) -> StudyOutput {
     if ctx.quick {
-        gapmax_rows(80.0, &[4.0], &[0.5], 1)
+        gapmax_rows(ctx, 80.0, &[4.0], &[0.5], 1)
     } else {
-        gapmax_rows(150.0, &[4.0, 2.0], &[0.5, 0.0], 3)
+        gapmax_rows(ctx, 150.0, &[4.0, 2.0], &[0.5, 0.0], 3)
     }
 }
 
@@ -533,15 +568,21 @@ pub fn gapmax(ctx: &StudyContext) -> StudyOutput {
 /// Quick: a 30 mm cube, λ = 0.5, one seed.
 pub fn gapmax_fine(ctx: &StudyContext) -> StudyOutput {
     if ctx.quick {
-        gapmax_rows(30.0, &[1.0], &[0.5], 1)
+        gapmax_rows(ctx, 30.0, &[1.0], &[0.5], 1)
     } else {
-        gapmax_rows(150.0, &[1.0], &[0.5, 0.0], 3)
+        gapmax_rows(ctx, 150.0, &[1.0], &[0.5, 0.0], 3)
     }
 }
 
 /// The Δd maximisation rows: every wall treatment λ of `walls`, curve, φ_M and d_min of
 /// `d_mins` in a cube of edge `edge`, seeds 1…`seeds`, all runs in parallel.
-fn gapmax_rows(edge: f64, d_mins: &[f64], walls: &[f64], seeds: u64) -> StudyOutput {
+fn gapmax_rows(
+    ctx: &StudyContext,
+    edge: f64,
+    d_mins: &[f64],
+    walls: &[f64],
+    seeds: u64,
+) -> StudyOutput {
     let mut table = Table::new(
         &format!(
             "Concrete case 3: Δd maximisation against d_min, {edge} mm walled cube \
@@ -609,7 +650,7 @@ fn gapmax_rows(edge: f64, d_mins: &[f64], walls: &[f64], seeds: u64) -> StudyOut
             }
         }
     }
-    let runs = run_parallel(&scenes);
+    let runs = run_parallel(ctx.journal.as_deref(), &scenes);
     let mut series: Vec<Series> = Vec::new();
     for (k, &(lambda, curve, phi, d_min, grains)) in cases.iter().enumerate() {
         let of_case = &runs[k * seeds as usize..(k + 1) * seeds as usize];

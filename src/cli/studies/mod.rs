@@ -22,10 +22,12 @@
 pub mod concrete;
 pub mod edmd;
 pub mod ellipsoid;
+mod journal;
 pub mod mixture;
 mod plot;
 mod table;
 
+pub use journal::Journal;
 pub use plot::{Figure, Series};
 pub use table::{mean_sd, median, si, slope, spread, Table};
 
@@ -51,6 +53,9 @@ pub struct StudyContext {
     /// The program and leading arguments that re-run this binary as the memory child
     /// ([`edmd::child_memory`] with `N QUEUE` appended), e.g. `[densepack, bench-child-memory]`.
     pub memory_child: Vec<String>,
+    /// Where the concrete studies record each finished run and find those of an interrupted
+    /// attempt ([`Journal`]); `None` records nothing.
+    pub journal: Option<std::sync::Arc<Journal>>,
 }
 
 /// One study of the suite.
