@@ -402,7 +402,7 @@ pub fn gap(ctx: &StudyContext) -> StudyOutput {
     } else {
         [("RSA", 0.44, 0.60), ("EDMD", 0.525, 0.60)]
     };
-    // The paper's 50 size distributions per step: about 50 minutes on two cores.
+    // The paper's 50 size distributions per step: about an hour on two cores.
     let seeds: u64 = if ctx.quick { 1 } else { 50 };
     let mut table = Table::new(
         "Concrete case 2: A16, 80 mm walled cube, d_min = 2 mm, Δd = 1 mm (paper 001, Fig. 9)",
