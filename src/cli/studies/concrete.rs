@@ -140,83 +140,62 @@ struct FullerCube {
     first: [Option<f64>; 3],
 }
 
+impl FullerCube {
+    /// The cube of edge `edge` with `seeds` seeds per step of `step` up to `last`, each
+    /// method from its `first` fraction.
+    fn new(edge: f64, seeds: u64, (step, last): (f64, f64), first: [Option<f64>; 3]) -> Self {
+        Self {
+            edge,
+            seeds,
+            step,
+            last,
+            first,
+        }
+    }
+}
+
 /// Case 1 (Fig. 7): success rate ψ and CPU time per success t_ψ against φ_eff for RSA
 /// (N^F = 10⁵, 10⁶) and EDMD, per cube, on a coarse grid (steps of 2.5 %, 10 and 5 seeds;
 /// about 20 CPU minutes). Quick: the 32 mm cube, RSA N^F = 10⁵ and EDMD from 0.60 in steps
 /// of 5 %, 2 seeds.
 pub fn fuller(ctx: &StudyContext) -> StudyOutput {
-    if ctx.quick {
-        fuller_rows(
-            ctx,
-            &[FullerCube {
-                edge: 32.0,
-                seeds: 2,
-                step: 0.05,
-                last: 0.65,
-                first: [Some(0.60), None, Some(0.60)],
-            }],
-        )
+    let cubes = if ctx.quick {
+        vec![FullerCube::new(
+            32.0,
+            2,
+            (0.05, 0.65),
+            [Some(0.60), None, Some(0.60)],
+        )]
     } else {
-        fuller_rows(
-            ctx,
-            &[
-                FullerCube {
-                    edge: 32.0,
-                    seeds: 10,
-                    step: 0.025,
-                    last: 0.70,
-                    first: [Some(0.55); 3],
-                },
-                FullerCube {
-                    edge: 80.0,
-                    seeds: 5,
-                    step: 0.025,
-                    last: 0.70,
-                    first: [Some(0.60); 3],
-                },
-            ],
-        )
-    }
+        vec![
+            FullerCube::new(32.0, 10, (0.025, 0.70), [Some(0.55); 3]),
+            FullerCube::new(80.0, 5, (0.025, 0.70), [Some(0.60); 3]),
+        ]
+    };
+    fuller_rows(ctx, &cubes)
 }
 
 /// Case 1 on the paper's grid: steps of 0.5 % and 50 size distributions per step, both cubes
-/// (hours on two cores). Each sweep starts a little below the highest φ_eff at which the
-/// coarse grid of [`fuller`] gives ψ = 1 for that method and cube (BENCHMARKS.md, case 1);
-/// the paper's rows below it, from 55 %, are all successes. Quick: the 32 mm cube, EDMD at
-/// 0.62 and 0.625, 2 seeds.
+/// (many hours on two cores; `--resume` runs it in parts). Each sweep starts a little below
+/// the highest φ_eff at which the coarse grid of [`fuller`] gives ψ = 1 for that method and
+/// cube (BENCHMARKS.md, case 1); the paper's rows below it, from 55 %, are all successes.
+/// Quick: the 32 mm cube, EDMD at 0.62 and 0.625, 2 seeds.
 pub fn fuller_fine(ctx: &StudyContext) -> StudyOutput {
-    if ctx.quick {
-        fuller_rows(
-            ctx,
-            &[FullerCube {
-                edge: 32.0,
-                seeds: 2,
-                step: 0.005,
-                last: 0.625,
-                first: [None, None, Some(0.62)],
-            }],
-        )
+    let cubes = if ctx.quick {
+        vec![FullerCube::new(
+            32.0,
+            2,
+            (0.005, 0.625),
+            [None, None, Some(0.62)],
+        )]
     } else {
-        fuller_rows(
-            ctx,
-            &[
-                FullerCube {
-                    edge: 32.0,
-                    seeds: 50,
-                    step: 0.005,
-                    last: 0.72,
-                    first: [Some(0.585), Some(0.61), Some(0.62)],
-                },
-                FullerCube {
-                    edge: 80.0,
-                    seeds: 50,
-                    step: 0.005,
-                    last: 0.72,
-                    first: [Some(0.61), Some(0.635), Some(0.68)],
-                },
-            ],
-        )
-    }
+        let paper = (0.005, 0.72);
+        vec![
+            FullerCube::new(32.0, 50, paper, [Some(0.585), Some(0.61), Some(0.62)]),
+            FullerCube::new(80.0, 50, paper, [Some(0.61), Some(0.635), Some(0.68)]),
+        ]
+    };
+    fuller_rows(ctx, &cubes)
 }
 
 /// The Fuller sweeps of `cubes`: per cube and method, φ_eff from the method's first fraction
