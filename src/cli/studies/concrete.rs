@@ -479,24 +479,19 @@ pub fn gap(ctx: &StudyContext) -> StudyOutput {
 /// Runs every scene of `scenes`, one per core at a time, and returns their outcomes in the
 /// same order. Each run gets a one-thread rayon pool of its own, so that its seeding (which
 /// otherwise fans out over the global pool) stays on the thread whose CPU time [`run`]
-/// measures. A scene `journal` holds the outcome of (an interrupted attempt's) is not run
-/// again; each new outcome is recorded there as it finishes.
+/// measures. Scenes whose outcome `journal` already holds (from an interrupted attempt) are
+/// not run again; each new outcome is recorded there as it finishes.
 fn run_parallel(journal: Option<&Journal>, scenes: &[String]) -> Vec<Run> {
     use std::sync::atomic::{AtomicUsize, Ordering};
     use std::sync::Mutex;
-    let results: Mutex<Vec<Option<Run>>> = Mutex::new(
-        scenes
-            .iter()
-            .map(|text| journal.and_then(|j| j.get(text)))
-            .collect(),
-    );
-    let pending: Vec<usize> = results
-        .lock()
-        .expect("not shared yet")
+    let recorded: Vec<Option<Run>> = scenes
         .iter()
-        .enumerate()
-        .filter_map(|(k, r)| r.is_none().then_some(k))
+        .map(|text| journal.and_then(|j| j.get(text)))
         .collect();
+    let pending: Vec<usize> = (0..scenes.len())
+        .filter(|&k| recorded[k].is_none())
+        .collect();
+    let results = Mutex::new(recorded);
     let next = AtomicUsize::new(0);
     let workers = std::thread::available_parallelism()
         .map_or(1, |n| n.get())

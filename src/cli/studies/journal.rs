@@ -8,7 +8,8 @@
 //! re-used only for the identical scene text and the identical build, so a resumed table is
 //! the table an uninterrupted run of that build would have written (its CPU times are those
 //! measured when each run ran). Lines of other builds are kept in the file but not used; a
-//! last line cut short by the interruption is ignored.
+//! last line cut short by the interruption is ignored. A build from uncommitted changes
+//! carries the commit it started from: resume with the binary that wrote the file.
 
 use serde::de::DeserializeOwned;
 use serde::Serialize;
