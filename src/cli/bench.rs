@@ -23,7 +23,7 @@ pub struct BenchArgs {
     #[arg(long, default_value = "bench-report")]
     out: PathBuf,
     /// Re-use the runs that an interrupted `bench` of this same build recorded in
-    /// DIR/runs.jsonl (the concrete studies'); without it that file is started afresh.
+    /// DIR/runs.jsonl (the concrete studies'); without it none is re-used (the file is kept).
     #[arg(long)]
     resume: bool,
     /// List the studies and exit.

@@ -51,7 +51,8 @@ impl Journal {
     pub const FILE: &'static str = "runs.jsonl";
 
     /// Opens `path` for appending. With `resume`, the runs it records for this build are
-    /// re-used (a missing file records none); without, it is started afresh. Reports on
+    /// re-used (a missing file records none); without, none is, but the file is kept and
+    /// appended to (a run of other studies into the same directory must not erase it). Reports on
     /// stderr how many runs are re-used and how many lines of other builds are left aside.
     pub fn open(path: &Path, resume: bool) -> std::io::Result<Self> {
         let mut recorded = HashMap::new();
@@ -74,12 +75,15 @@ impl Journal {
                 path.display()
             );
         }
-        let file = std::fs::OpenOptions::new()
+        let mut file = std::fs::OpenOptions::new()
             .create(true)
-            .append(resume)
-            .write(true)
-            .truncate(!resume)
+            .append(true)
             .open(path)?;
+        // A line cut short by an interruption is closed, so that the next record starts a
+        // line of its own.
+        if std::fs::read(path)?.last().is_some_and(|&b| b != b'\n') {
+            writeln!(file)?;
+        }
         Ok(Self {
             path: path.to_owned(),
             file: Mutex::new(file),
