@@ -315,6 +315,8 @@ fn bench_resume_reuses_the_recorded_runs_of_this_build_only() {
     // No recorded scene ran again: each is still in one line of this build (the first also
     // in `foreign`).
     let lines = std::fs::read_to_string(&journal).unwrap();
+    // The line cut short was closed when the journal was opened again.
+    assert!(lines.ends_with("{\"build\": \"cut\n"), "{lines}");
     for (k, line) in fresh.iter().enumerate() {
         let scene = serde_json::to_string(&line["scene"]).unwrap();
         let copies = if k == 0 { 2 } else { 1 };

@@ -15,7 +15,7 @@ use serde::de::DeserializeOwned;
 use serde::Serialize;
 use std::collections::HashMap;
 use std::fs::File;
-use std::io::{BufRead as _, BufReader, Write as _};
+use std::io::{BufRead as _, BufReader, Read as _, Seek as _, SeekFrom, Write as _};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
@@ -77,12 +77,19 @@ impl Journal {
         }
         let mut file = std::fs::OpenOptions::new()
             .create(true)
+            .read(true)
             .append(true)
             .open(path)?;
         // A line cut short by an interruption is closed, so that the next record starts a
-        // line of its own.
-        if std::fs::read(path)?.last().is_some_and(|&b| b != b'\n') {
-            writeln!(file)?;
+        // line of its own. Only the last byte is read (the file grows to megabytes); writes
+        // in append mode go to the end wherever the read left the position.
+        if file.metadata()?.len() > 0 {
+            let mut last = [0u8];
+            file.seek(SeekFrom::End(-1))?;
+            file.read_exact(&mut last)?;
+            if last[0] != b'\n' {
+                writeln!(file)?;
+            }
         }
         Ok(Self {
             path: path.to_owned(),
