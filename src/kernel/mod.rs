@@ -819,9 +819,9 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 let entry = in_block[k];
                 let j = self.partner_index(entry);
                 // The partner's collision counter goes into the local list if the pair
-                // meets (pass 3). Asked for as the pair passes the screen, so that with the
-                // array out of cache (10⁶ particles) its load overlaps the contact times
-                // instead of stalling the end of the pass.
+                // meets (pass 3). Asked for as the pair passes the screen: with the array
+                // out of cache (10⁶ particles) its load then starts while the contact times
+                // are computed, not at the end of the pass (which still waits on part of it).
                 prefetch(&self.counts[j]);
                 // A partner left out is not predicted without a screen (a contact time is
                 // dear then); with one, it is dropped with its time, not by a branch.
