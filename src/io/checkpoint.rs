@@ -36,7 +36,9 @@ pub const MAGIC: &[u8] = b"densepack-checkpoint\n";
 /// rates).
 /// 8: the cell grid links its members one way (no `prev`); particles keep two local events,
 /// so a run's events differ from version 7's.
-pub const CHECKPOINT_VERSION: u32 = 8;
+/// 9: no collision counters (pair events are checked against the partner's last change,
+/// which starts afresh at every barrier).
+pub const CHECKPOINT_VERSION: u32 = 9;
 
 /// Everything of a checkpoint but the kernel.
 #[derive(Clone, Debug, Serialize, Deserialize)]

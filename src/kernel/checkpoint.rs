@@ -3,8 +3,8 @@
 //! A snapshot is taken at a time barrier (see [`Edmd::continue_stage`]'s `at_barrier`), where
 //! the kernel is synchronised at kernel time 0, every local event list is about to be
 //! cleared and the queue about to be reset. What survives a barrier is stored here
-//! exactly — particles (delayed states at time 0, shapes with their growth), collision
-//! counters, neighbour-list spheres, envelopes and lists (in their order), the cell grid (with the
+//! exactly — particles (delayed states at time 0, shapes with their growth),
+//! neighbour-list spheres, envelopes and lists (in their order), the cell grid (with the
 //! member order of every cell, which decides the order of future neighbour lists), the
 //! particle numbering, the skin, the barrier interval, the elapsed time and the event
 //! counters — so that a kernel rebuilt by [`Edmd::from_snapshot`] processes the same events
@@ -33,7 +33,6 @@ use std::borrow::Cow;
 ))]
 pub struct KernelSnapshot<'a, S: Collidable> {
     particles: Cow<'a, [Particle<S>]>,
-    counts: Cow<'a, [u32]>,
     list_spheres: Cow<'a, [super::ListSphere]>,
     envelopes: Cow<'a, [S::Envelope]>,
     neighbours: Cow<'a, [super::NeighbourList]>,
@@ -72,7 +71,6 @@ where
         );
         KernelSnapshot {
             particles: Cow::Borrowed(&self.particles),
-            counts: Cow::Borrowed(&self.counts),
             list_spheres: Cow::Borrowed(self.lists.spheres()),
             envelopes: Cow::Borrowed(self.lists.envelopes()),
             neighbours: Cow::Borrowed(self.lists.all()),
@@ -105,7 +103,6 @@ where
     ) -> Result<Self, SnapshotError> {
         let n = snapshot.particles.len();
         let lengths = [
-            ("counts", snapshot.counts.len()),
             ("list_spheres", snapshot.list_spheres.len()),
             ("neighbours", snapshot.neighbours.len()),
             ("ids", snapshot.ids.len()),
@@ -165,7 +162,8 @@ where
         );
         Ok(Self {
             particles: snapshot.particles.into_owned(),
-            counts: snapshot.counts.into_owned(),
+            changed_in: vec![0; n],
+            event_number: 0,
             local: LocalLists::new(n),
             lists,
             boundary,

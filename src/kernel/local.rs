@@ -13,17 +13,19 @@ pub(super) const LOCAL_CAPACITY: usize = 2;
 /// What an event does.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum EventKind {
-    /// Collision with the partner, valid while the partner's counter equals the stored one.
-    Collision { partner: u32, partner_count: u32 },
+    /// Collision with the partner, predicted during event `predicted_in` of the barrier
+    /// interval: valid while the partner's trajectory has not changed in a later event
+    /// (`Edmd::changed_in`).
+    Collision { partner: u32, predicted_in: u32 },
     /// Contact with a wall of the container.
     Wall(WallId),
     /// The particle reaches the surface of its neighbour-list sphere.
     NeighbourList,
 }
 
-/// One predicted event, packed into 16 bytes: the time, and either a partner with its
-/// counter or (for the particle's own events) a tag in the counter slot with
-/// `partner = OWN`.
+/// One predicted event, packed into 16 bytes: the time, and either a partner with the
+/// number of the event that predicted it or (for the particle's own events) a tag in that
+/// slot with `partner = OWN`.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct LocalEvent {
     pub(super) time: f64,
@@ -39,8 +41,8 @@ impl LocalEvent {
         let (partner, tag) = match kind {
             EventKind::Collision {
                 partner,
-                partner_count,
-            } => (partner, partner_count),
+                predicted_in,
+            } => (partner, predicted_in),
             EventKind::Wall(w) => (OWN, u32::from(w)),
             EventKind::NeighbourList => (OWN, NEIGHBOUR_TAG),
         };
@@ -52,9 +54,9 @@ impl LocalEvent {
         match (self.partner, self.tag) {
             (OWN, NEIGHBOUR_TAG) => EventKind::NeighbourList,
             (OWN, w) => EventKind::Wall(w as WallId),
-            (partner, partner_count) => EventKind::Collision {
+            (partner, predicted_in) => EventKind::Collision {
                 partner,
-                partner_count,
+                predicted_in,
             },
         }
     }
@@ -259,7 +261,7 @@ mod tests {
         for kind in [
             EventKind::Collision {
                 partner: 7,
-                partner_count: 42,
+                predicted_in: 42,
             },
             EventKind::Wall(3),
             EventKind::NeighbourList,

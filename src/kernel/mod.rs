@@ -6,7 +6,7 @@
 //! barrier's re-prediction (`begin_interval`), the event loop with its prefetch pipeline
 //! (`run_interval`, `collide`, `hit_wall`, `renew_neighbours`) and the prediction passes
 //! (`predict_pairs_as`, `predict_own`) — plus the event budget and ~80 lines of unit
-//! tests. The prediction pass borrows the particles, counters, lists and buffers of the
+//! tests. The prediction pass borrows the particles, event numbers, lists and buffers of the
 //! kernel at once and is called from every kind of event, so it stays beside the loop as a
 //! method of the one struct; what has a state and invariants of its own lives apart: the
 //! neighbour lists (`lists`), the local event lists (`local`), stages (`stage`), periodic
@@ -15,16 +15,19 @@
 //! # How an event flows
 //! Every particle keeps a *delayed state* — its free flight since its own last event, stored
 //! by the flight's point at kernel time 0 ([`Particle`]) — and a *local event list*: the
-//! events predicted for it since its trajectory last changed, each event carrying the
-//! collision counter of its partner. The queue ([`crate::queue`])
-//! holds one entry per particle, the earliest of its local list. The loop peeks the queue:
+//! events predicted for it since its trajectory last changed, each pair event carrying the
+//! number of the event (within the barrier interval) that predicted it. The kernel records
+//! for each particle the number of the event that last changed its flight
+//! (`changed_in`). The queue ([`crate::queue`]) holds one entry per particle,
+//! the earliest of its local list. The loop peeks the queue:
 //!
 //! 1. an event later than the *time barrier* ends the interval (see below);
-//! 2. a pair event whose partner's counter has moved on is stale: it is dropped from the
-//!    local list and the particle is rescheduled with its next local event;
+//! 2. a pair event whose partner's flight changed in a later event than the one that
+//!    predicted it is stale: it is dropped from the local list and the particle is
+//!    rescheduled with its next local event;
 //! 3. a collision evaluates both particles at the event time, applies the impulse
-//!    ([`Collidable::collision_impulse`]) by changing both flights, bumps both counters and
-//!    predicts fresh local lists for both against their neighbour lists;
+//!    ([`Collidable::collision_impulse`]) by changing both flights, records the change for
+//!    both and predicts fresh local lists for both against their neighbour lists;
 //! 4. a wall contact does the same for one particle ([`Boundary`]);
 //! 5. a neighbour-list update (the particle reaches the surface of its neighbour-list
 //!    sphere) moves its sphere to where it is now, re-registers it in the cell grid (the
@@ -56,7 +59,7 @@
 //! images (`images`).
 //!
 //! Invalidation never scans the queue: a particle's own events go with its local list, and
-//! events of others that name it are recognised as stale by the counter.
+//! events of others that name it are recognised as stale by the event numbers.
 //!
 //! # Time barriers
 //! Events later than the barrier are not stored. At the barrier all particles are brought to
@@ -247,7 +250,20 @@ enum Partners {
 /// types, so the event loop is monomorphised for the scene.
 pub struct Edmd<S: Collidable, B: Boundary, Q: EventQueue> {
     particles: Vec<Particle<S>>,
-    counts: Vec<u32>,
+    /// For each particle, the number ([`Self::event_number`]) of the event of the current
+    /// barrier interval that last changed its trajectory, 0 if none has. A collision predicted
+    /// during event `k` is valid while its partner's entry is at most `k`: within an event
+    /// every trajectory change comes before every prediction, so an entry above `k` means
+    /// the partner moved off the flight the prediction used. The prediction pass reads
+    /// nothing of the partner but its state (a per-particle counter, read there for each
+    /// kept event, was a cache miss at 10⁶ particles); the check reads the entry once, for
+    /// the event about to be processed, requested one event ahead.
+    changed_in: Vec<u32>,
+    /// Number of the event being processed in the current barrier interval, counted from 1
+    /// (0 while the barrier predicts every particle). Stale entries popped from the queue
+    /// take no number: predictions made when one is dropped carry the last event's. An interval ends before `u32::MAX` events
+    /// ([`stage::MAX_INTERVAL_EVENTS`]).
+    event_number: u32,
     local: LocalLists,
     /// The neighbour lists, their spheres, envelopes and cell grid, and the skin.
     lists: NeighbourLists<S>,
@@ -373,7 +389,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         drop(masses);
         let lists = NeighbourLists::new(&particles, &boundary, config.neighbour_skin);
         let mut kernel = Self {
-            counts: vec![0; n],
+            changed_in: vec![0; n],
+            event_number: 0,
             local: LocalLists::new(n),
             lists,
             ids: (0..n as u32).collect(),
@@ -580,11 +597,11 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     fn rebuild_grid(&mut self, width: f64) {
         let n = self.particles.len();
         self.local = LocalLists::new(0);
-        let (counts, ids, particles) = (&mut self.counts, &mut self.ids, &mut self.particles);
+        let (ids, particles) = (&mut self.ids, &mut self.particles);
         let updates = self.counters.neighbour_list_updates;
+        // `changed_in` is not renumbered: every entry is 0 at a barrier.
         self.lists
             .rebuild_grid(&self.boundary, width, updates, |order, visited| {
-                permute_in_place(counts, order, visited);
                 permute_in_place(ids, order, visited);
                 permute_in_place(particles, order, visited);
             });
@@ -647,6 +664,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             self.lists.build_all(&self.boundary);
         }
         self.queue.reset(0.0, interval, n);
+        self.event_number = 0;
+        self.changed_in.fill(0);
         for i in 0..n {
             self.refresh_list_exit(i);
         }
@@ -680,9 +699,10 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     /// 3. the few contacts found are sorted (earliest first, the first neighbour on ties) and
     ///    the earliest [`LOCAL_CAPACITY`] go into the list — the events that pushing every
     ///    prediction in neighbour order would keep, up to the order of times that round to
-    ///    the same event time — reading a partner's counter only for those. A list longer
-    ///    than a block (a large grain among small ones) keeps only the earliest after each
-    ///    block, and the later blocks screen against the latest of them.
+    ///    the same event time, each marked with the number of the event that predicted it
+    ///    ([`Self::changed_in`]). A list longer than a block (a large grain among small
+    ///    ones) keeps only the earliest after each block, and the later blocks screen
+    ///    against the latest of them.
     ///
     /// The caller has asked for the partners' states first ([`Self::prefetch_partners`]).
     #[inline]
@@ -818,11 +838,6 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 passed &= passed - 1;
                 let entry = in_block[k];
                 let j = self.partner_index(entry);
-                // The partner's collision counter goes into the local list if the pair
-                // meets (pass 3). Asked for as the pair passes the screen: with the array
-                // out of cache (10⁶ particles) its load then starts while the contact times
-                // are computed, not at the end of the pass (which still waits on part of it).
-                prefetch(&self.counts[j]);
                 // A partner left out is not predicted without a screen (a contact time is
                 // dear then); with one, it is dropped with its time, not by a branch.
                 let unscreened = || {
@@ -855,12 +870,11 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         }
         let mut list = LocalList::default();
         for &(tau, k) in found_now.iter().take(LOCAL_CAPACITY) {
-            let entry = neighbours[k as usize];
             list.push(LocalEvent::new(
                 t + tau,
                 EventKind::Collision {
-                    partner: entry,
-                    partner_count: self.counts[self.partner_index(entry)],
+                    partner: neighbours[k as usize],
+                    predicted_in: self.event_number,
                 },
             ));
         }
@@ -998,7 +1012,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             // Data of the next events loads while this one is processed (at 10⁵ particles
             // these loads would wait on main memory), in a pipeline two events deep. The likeliest next particle, whose
             // local and neighbour lists were requested one event ago: the states of its
-            // partners, and its next partner's counter (the validity check), state,
+            // partners, and its next partner's last change (the validity check), state,
             // neighbour list, local list (rewritten, then read back by the collision) and
             // queue entry. The candidates for the event after it: their local lists, states
             // and neighbour lists.
@@ -1010,7 +1024,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 if let Some((_, e)) = self.local.earliest(k) {
                     if let EventKind::Collision { partner, .. } = e.kind() {
                         let j = self.partner_index(partner);
-                        prefetch(&self.counts[j]);
+                        prefetch(&self.changed_in[j]);
                         prefetch(&self.particles[j]);
                         prefetch(self.lists.list(j));
                         self.local.prefetch(j);
@@ -1032,19 +1046,26 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             match event.kind() {
                 EventKind::Collision {
                     partner,
-                    partner_count,
+                    predicted_in,
                 } => {
                     let j = self.partner_index(partner);
-                    if self.counts[j] != partner_count {
+                    if self.changed_in[j] > predicted_in {
                         self.local.remove(i, idx);
                         self.reschedule(i);
                         self.counters.stale += 1;
                         continue;
                     }
+                    self.event_number += 1;
                     self.collide(i, partner, partners_requested);
                 }
-                EventKind::Wall(wall) => self.hit_wall(i, wall),
-                EventKind::NeighbourList => self.renew_neighbours(i),
+                EventKind::Wall(wall) => {
+                    self.event_number += 1;
+                    self.hit_wall(i, wall);
+                }
+                EventKind::NeighbourList => {
+                    self.event_number += 1;
+                    self.renew_neighbours(i);
+                }
             }
             self.counters.events += 1;
             self.counters.late_events += u64::from(late);
@@ -1086,8 +1107,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.virial += impulse.dot(&dr);
         self.particles[i].kick(impulse / mi, spin_i, t);
         self.particles[j].kick(-impulse / mj, spin_j, t);
-        self.counts[i] = self.counts[i].wrapping_add(1);
-        self.counts[j] = self.counts[j].wrapping_add(1);
+        self.changed_in[i] = self.event_number;
+        self.changed_in[j] = self.event_number;
         // Both before the predictions: `i`'s look no further than `j`'s new list exit.
         self.refresh_list_exit(i);
         self.refresh_list_exit(j);
@@ -1126,11 +1147,11 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.counters.wall_collisions += 1;
     }
 
-    /// After an event that changed only `i`'s trajectory: bumps its counter and predicts it
-    /// afresh.
+    /// After an event that changed only `i`'s trajectory: records the change
+    /// ([`Self::changed_in`]) and predicts `i` afresh.
     #[inline]
     fn predict_changed(&mut self, i: usize) {
-        self.counts[i] = self.counts[i].wrapping_add(1);
+        self.changed_in[i] = self.event_number;
         self.predict_afresh(i);
         self.reschedule(i);
     }

@@ -246,6 +246,11 @@ impl StageReport {
 /// Multiple of its planned events after which a barrier interval ends early.
 const EARLY_BARRIER_EVENTS: f64 = 16.0;
 
+/// Most events a barrier interval processes: the kernel numbers an interval's events in 32
+/// bits (`Edmd::changed_in`), so an interval that would take more ends early (beyond 10⁸
+/// particles at the default events per interval).
+pub(super) const MAX_INTERVAL_EVENTS: u64 = u32::MAX as u64 - 1;
+
 /// Per-interval pressure record: virial and `Σ m v² · Δt`.
 #[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
 struct PressureBlock {
@@ -462,7 +467,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             // An interval that takes far more events than planned ends early: the approach
             // to jamming inside one interval (the collision rate diverges there) would
             // otherwise never reach the barrier where the pressure is measured.
-            budget.interval_events_left = (EARLY_BARRIER_EVENTS * target_events).ceil() as u64;
+            budget.interval_events_left =
+                ((EARLY_BARRIER_EVENTS * target_events).ceil() as u64).min(MAX_INTERVAL_EVENTS);
             let completed = self.run_interval(&mut budget);
             let t_end = if completed {
                 self.barrier_time
