@@ -12,6 +12,7 @@
 use super::images;
 use super::{permute_in_place, Particle};
 use crate::boundary::Boundary;
+use crate::prefetch;
 use crate::shape::{Collidable, EnvelopeModel, PeriodicImages, Vec3};
 use crate::spatial::{CellGrid, MAX_LEVELS};
 use crate::tuning::MAX_SKIN;
@@ -97,7 +98,8 @@ pub(super) struct NeighbourLists<S: Collidable> {
     /// Always `None` for shapes without images ([`crate::shape::NoImages`] has no value), so
     /// every test of it is a constant there.
     images: Option<S::Images>,
-    /// Reused buffer for the candidates of an image-tracking list build.
+    /// Reused buffer for the candidates of a list build ([`Self::overlapping_lists`],
+    /// [`Self::list_candidates`]).
     candidates: Vec<u32>,
 }
 
@@ -457,19 +459,28 @@ impl<S: Collidable> NeighbourLists<S> {
 
     /// Appends to `out` the particles `j ≥ first`, `j ≠ i`, whose neighbour-list spheres
     /// overlap `i`'s (`|c_i − c_j|² < (r_i + r_j)²`), and their envelopes
-    /// ([`EnvelopeModel::may_overlap`]), in the order of the cell walk. Each candidate is tested
-    /// as the walk meets it (a list update walks some 20 cells for about 70 candidates and
-    /// 13 neighbours): no buffer of candidates and no second pass over it.
+    /// ([`EnvelopeModel::may_overlap`]), in the order of the cell walk; `candidates` is
+    /// scratch. The walk (some 20 cells for about 70 candidates and 13 neighbours) collects
+    /// the candidates and asks for their spheres, and a second pass tests them: the spheres
+    /// are scattered through memory at 10⁶ particles, and their loads then overlap instead
+    /// of each waiting behind the walk of the cell lists (10⁶ fluid: 0.95 of the time,
+    /// 10⁴: 1.007, same lists).
     fn overlapping_lists<B: Boundary>(
         &self,
         boundary: &B,
         i: usize,
         first: usize,
         out: &mut NeighbourList,
+        candidates: &mut Vec<u32>,
     ) {
+        candidates.clear();
+        self.for_each_candidate(i, |j| {
+            prefetch(&self.spheres[j]);
+            candidates.push(j as u32);
+        });
         let sphere_i = &self.spheres[i];
         let wraps = !self.pairs_free_of_images(i);
-        self.for_each_candidate(i, |j| {
+        for j in candidates.iter().map(|&j| j as usize) {
             let sphere_j = &self.spheres[j];
             let mut d = sphere_i.centre - sphere_j.centre;
             if wraps {
@@ -483,7 +494,7 @@ impl<S: Collidable> NeighbourLists<S> {
             if keep {
                 out.push(j as u32);
             }
-        });
+        }
     }
 
     /// Builds every neighbour list from the current spheres.
@@ -505,7 +516,7 @@ impl<S: Collidable> NeighbourLists<S> {
             }
             // Each pair once, from its lower index.
             overlapping.clear();
-            self.overlapping_lists(boundary, i, i + 1, &mut overlapping);
+            self.overlapping_lists(boundary, i, i + 1, &mut overlapping, &mut candidates);
             for &j in &overlapping {
                 self.neighbours[i].push(j);
                 self.neighbours[j as usize].push(i as u32);
@@ -549,7 +560,9 @@ impl<S: Collidable> NeighbourLists<S> {
             }
             self.candidates = candidates;
         } else {
-            self.overlapping_lists(boundary, i, 0, &mut new);
+            let mut candidates = std::mem::take(&mut self.candidates);
+            self.overlapping_lists(boundary, i, 0, &mut new, &mut candidates);
+            self.candidates = candidates;
             // Most partners stay: only the lists of those that leave or arrive are edited
             // (two scans of the short lists instead of a cache miss on every partner's
             // list).
