@@ -599,7 +599,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         self.local = LocalLists::new(0);
         let (ids, particles) = (&mut self.ids, &mut self.particles);
         let updates = self.counters.neighbour_list_updates;
-        // `changed_in` is not renumbered: every entry is 0 at a barrier.
+        // `changed_in` is not renumbered: `begin_interval` clears it before any prediction.
         self.lists
             .rebuild_grid(&self.boundary, width, updates, |order, visited| {
                 permute_in_place(ids, order, visited);
@@ -1380,6 +1380,83 @@ mod tests {
             listed += p.len();
         }
         assert!(listed > 20, "only {listed} collisions predicted");
+    }
+
+    /// A pair event is kept while its partner's flight is the one it was predicted from:
+    /// after every few hundred events of a growing φ ≈ 0.3 packing, every pair event that
+    /// the event numbers call valid is a contact of the two particles' current flights (its
+    /// time solved again here from their states, Eq. 22 in closed form), and the numbers
+    /// call some stale (so both sides of the check are exercised).
+    #[test]
+    fn a_pair_event_stays_valid_exactly_while_its_partner_keeps_its_flight() {
+        use super::{Edmd, EventBudget, EventKind, KernelConfig};
+        use crate::boundary::{Boundary, PeriodicBox};
+        use crate::protocol::rsa::rsa_spheres;
+        use crate::queue::CalendarQueue;
+        use crate::shape::{predict_sphere_sphere, Sphere, Vec3};
+        use rand::SeedableRng;
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(11);
+        let boundary = PeriodicBox {
+            min: Vec3::zeros(),
+            len: Vec3::new(9.0, 9.0, 9.0),
+        };
+        let radii = vec![0.5; 400];
+        let centres = rsa_spheres(&boundary, &radii, 0.0, 0.0, 100_000, None, &mut rng).unwrap();
+        let shapes = radii.iter().map(|&r| Sphere { r0: r, g: 0.02 }).collect();
+        let mut k: Edmd<Sphere, PeriodicBox, CalendarQueue> =
+            Edmd::new(centres, shapes, boundary, KernelConfig::default(), &mut rng);
+        k.begin_interval(2.0);
+        let (mut valid, mut stale) = (0, 0);
+        for _ in 0..6 {
+            let mut budget = EventBudget {
+                events_left: 400,
+                deadline: None,
+                cancel: None,
+                stall_epsilon: 0.0,
+                since_check: 0,
+                time_at_check: 0.0,
+                frozen_checks: 0,
+                frozen_limit: u32::MAX,
+                interval_events_left: u64::MAX,
+                stopped: None,
+            };
+            assert!(
+                !k.run_interval(&mut budget),
+                "the interval outlasts 400 events"
+            );
+            let t = k.time;
+            for i in 0..k.particles.len() {
+                for e in k.local.events(i).iter().filter(|e| e.time.is_finite()) {
+                    let EventKind::Collision {
+                        partner,
+                        predicted_in,
+                    } = e.kind()
+                    else {
+                        continue;
+                    };
+                    let j = k.partner_index(partner);
+                    if k.changed_in[j] > predicted_in {
+                        stale += 1;
+                        continue;
+                    }
+                    valid += 1;
+                    let (pi, pj) = (&k.particles[i], &k.particles[j]);
+                    let mut dr = pi.position_at(t) - pj.position_at(t);
+                    k.boundary.minimum_image(&mut dr);
+                    let sigma = pi.shape.radius(t) + pj.shape.radius(t);
+                    let growth = pi.shape.g + pj.shape.g;
+                    let dv = pi.vel - pj.vel;
+                    let tau = predict_sphere_sphere(sigma, growth, &dr, &dv, k.barrier_time - t);
+                    let again = tau.map(|tau| t + tau);
+                    assert!(
+                        again.is_some_and(|again| (again - e.time).abs() < 1e-6),
+                        "({i}, {j}) kept at {} but its flights meet at {again:?}",
+                        e.time
+                    );
+                }
+            }
+        }
+        assert!(valid > 100 && stale > 10, "{valid} valid, {stale} stale");
     }
 
     /// A large sphere among small ones lists more neighbours than a block of the prediction

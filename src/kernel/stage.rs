@@ -247,8 +247,9 @@ impl StageReport {
 const EARLY_BARRIER_EVENTS: f64 = 16.0;
 
 /// Most events a barrier interval processes: the kernel numbers an interval's events in 32
-/// bits (`Edmd::changed_in`), so an interval that would take more ends early (beyond 10⁸
-/// particles at the default events per interval).
+/// bits (`Edmd::changed_in`), so an interval that would take more ends early (only with
+/// some 6.7·10⁷ particles or more, at the default of 4 events per particle and interval and
+/// the early barrier at 16 times that).
 pub(super) const MAX_INTERVAL_EVENTS: u64 = u32::MAX as u64 - 1;
 
 /// Per-interval pressure record: virial and `Σ m v² · Δt`.
