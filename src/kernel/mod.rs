@@ -1342,26 +1342,39 @@ mod tests {
 
     /// At a barrier each pair's collision is predicted from its lower index only
     /// (`Partners::Above`): no pair sits in both particles' lists.
-    #[test]
-    fn a_barrier_lists_each_pair_once() {
-        use super::{Edmd, EventKind, KernelConfig};
+    type GrowingSpheres = super::Edmd<
+        crate::shape::Sphere,
+        crate::boundary::PeriodicBox,
+        crate::queue::CalendarQueue,
+    >;
+
+    /// `n` spheres of radius 0.5 seeded by RSA in a periodic cube of edge 9, all growing at
+    /// `g`, at the start of a barrier interval of length 2.
+    fn growing_spheres(n: usize, g: f64, seed: u64) -> GrowingSpheres {
+        use super::KernelConfig;
         use crate::boundary::PeriodicBox;
         use crate::protocol::rsa::rsa_spheres;
-        use crate::queue::CalendarQueue;
         use crate::shape::{Sphere, Vec3};
         use rand::SeedableRng;
-        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(5);
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);
         let boundary = PeriodicBox {
             min: Vec3::zeros(),
             len: Vec3::new(9.0, 9.0, 9.0),
         };
-        let radii = vec![0.5; 300];
+        let radii = vec![0.5; n];
         let centres = rsa_spheres(&boundary, &radii, 0.0, 0.0, 100_000, None, &mut rng).unwrap();
-        let shapes = radii.iter().map(|&r| Sphere { r0: r, g: 0.05 }).collect();
-        let mut k: Edmd<Sphere, PeriodicBox, CalendarQueue> =
-            Edmd::new(centres, shapes, boundary, KernelConfig::default(), &mut rng);
+        let shapes = radii.iter().map(|&r| Sphere { r0: r, g }).collect();
+        let mut k =
+            GrowingSpheres::new(centres, shapes, boundary, KernelConfig::default(), &mut rng);
         k.begin_interval(2.0);
-        let partners = |k: &Edmd<Sphere, PeriodicBox, CalendarQueue>, i: usize| {
+        k
+    }
+
+    #[test]
+    fn a_barrier_lists_each_pair_once() {
+        use super::EventKind;
+        let k = growing_spheres(300, 0.05, 5);
+        let partners = |k: &GrowingSpheres, i: usize| {
             k.local
                 .events(i)
                 .iter()
@@ -1389,23 +1402,10 @@ mod tests {
     /// call some stale (so both sides of the check are exercised).
     #[test]
     fn a_pair_event_stays_valid_exactly_while_its_partner_keeps_its_flight() {
-        use super::{Edmd, EventBudget, EventKind, KernelConfig};
-        use crate::boundary::{Boundary, PeriodicBox};
-        use crate::protocol::rsa::rsa_spheres;
-        use crate::queue::CalendarQueue;
-        use crate::shape::{predict_sphere_sphere, Sphere, Vec3};
-        use rand::SeedableRng;
-        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(11);
-        let boundary = PeriodicBox {
-            min: Vec3::zeros(),
-            len: Vec3::new(9.0, 9.0, 9.0),
-        };
-        let radii = vec![0.5; 400];
-        let centres = rsa_spheres(&boundary, &radii, 0.0, 0.0, 100_000, None, &mut rng).unwrap();
-        let shapes = radii.iter().map(|&r| Sphere { r0: r, g: 0.02 }).collect();
-        let mut k: Edmd<Sphere, PeriodicBox, CalendarQueue> =
-            Edmd::new(centres, shapes, boundary, KernelConfig::default(), &mut rng);
-        k.begin_interval(2.0);
+        use super::{EventBudget, EventKind};
+        use crate::boundary::Boundary;
+        use crate::shape::predict_sphere_sphere;
+        let mut k = growing_spheres(400, 0.02, 11);
         let (mut valid, mut stale) = (0, 0);
         for _ in 0..6 {
             let mut budget = EventBudget {
