@@ -1340,8 +1340,7 @@ impl EventBudget {
 mod tests {
     use super::permute_in_place;
 
-    /// At a barrier each pair's collision is predicted from its lower index only
-    /// (`Partners::Above`): no pair sits in both particles' lists.
+    /// Spheres in a periodic box with the calendar queue ([`growing_spheres`]).
     type GrowingSpheres = super::Edmd<
         crate::shape::Sphere,
         crate::boundary::PeriodicBox,
@@ -1370,6 +1369,8 @@ mod tests {
         k
     }
 
+    /// At a barrier each pair's collision is predicted from its lower index only
+    /// (`Partners::Above`): no pair sits in both particles' lists.
     #[test]
     fn a_barrier_lists_each_pair_once() {
         use super::EventKind;
