@@ -5,7 +5,7 @@
 //! particles' delayed states within one event — construction and thermodynamics, the
 //! barrier's re-prediction (`begin_interval`), the event loop with its prefetch pipeline
 //! (`run_interval`, `collide`, `hit_wall`, `renew_neighbours`) and the prediction passes
-//! (`predict_pairs_as`, `predict_own`) — plus the event budget and ~80 lines of unit
+//! (`predict_pairs_as`, `predict_own`) — plus the event budget and ~270 lines of unit
 //! tests. The prediction pass borrows the particles, event numbers, lists and buffers of the
 //! kernel at once and is called from every kind of event, so it stays beside the loop as a
 //! method of the one struct; what has a state and invariants of its own lives apart: the
@@ -261,8 +261,8 @@ pub struct Edmd<S: Collidable, B: Boundary, Q: EventQueue> {
     changed_in: Vec<u32>,
     /// Number of the event being processed in the current barrier interval, counted from 1
     /// (0 while the barrier predicts every particle). Stale entries popped from the queue
-    /// take no number: predictions made when one is dropped carry the last event's. An interval ends before `u32::MAX` events
-    /// ([`stage::MAX_INTERVAL_EVENTS`]).
+    /// take no number: predictions made when one is dropped carry the last event's. An
+    /// interval ends before `u32::MAX` events ([`stage::MAX_INTERVAL_EVENTS`]).
     event_number: u32,
     local: LocalLists,
     /// The neighbour lists, their spheres, envelopes and cell grid, and the skin.
@@ -1043,29 +1043,26 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 .expect("a queued particle has events");
             let late = t < self.time;
             self.time = self.time.max(t);
-            match event.kind() {
-                EventKind::Collision {
-                    partner,
-                    predicted_in,
-                } => {
-                    let j = self.partner_index(partner);
-                    if self.changed_in[j] > predicted_in {
-                        self.local.remove(i, idx);
-                        self.reschedule(i);
-                        self.counters.stale += 1;
-                        continue;
-                    }
-                    self.event_number += 1;
-                    self.collide(i, partner, partners_requested);
+            let kind = event.kind();
+            if let EventKind::Collision {
+                partner,
+                predicted_in,
+            } = kind
+            {
+                if self.changed_in[self.partner_index(partner)] > predicted_in {
+                    self.local.remove(i, idx);
+                    self.reschedule(i);
+                    self.counters.stale += 1;
+                    continue;
                 }
-                EventKind::Wall(wall) => {
-                    self.event_number += 1;
-                    self.hit_wall(i, wall);
+            }
+            self.event_number += 1;
+            match kind {
+                EventKind::Collision { partner, .. } => {
+                    self.collide(i, partner, partners_requested)
                 }
-                EventKind::NeighbourList => {
-                    self.event_number += 1;
-                    self.renew_neighbours(i);
-                }
+                EventKind::Wall(wall) => self.hit_wall(i, wall),
+                EventKind::NeighbourList => self.renew_neighbours(i),
             }
             self.counters.events += 1;
             self.counters.late_events += u64::from(late);
