@@ -651,7 +651,16 @@ impl PairLevels {
             .fold((f64::INFINITY, 0.0_f64), |m, d| (m.0.min(d), m.1.max(d)));
         let max_cells = 2 * n as i64 + 27;
         let cells_along = |h: f64| -> [i64; 3] {
-            std::array::from_fn(|k| ((len[k] / h).floor().min(1e6) as i64).max(1))
+            // A ratio that is not a number (an infinite extent over an infinite width) counts
+            // one cell, so that the width search below always ends.
+            std::array::from_fn(|k| {
+                let cells = (len[k] / h).floor();
+                if cells >= 1.0 {
+                    cells.min(1e6) as i64
+                } else {
+                    1
+                }
+            })
         };
         let mut widths = vec![d_max.max(f64::MIN_POSITIVE)];
         while cells_along(widths[0]).iter().product::<i64>() > max_cells {
@@ -1367,6 +1376,31 @@ mod tests {
             semi_axes: [a, 0.05, 0.05],
             orientation: [half.cos(), 0.0, 0.0, half.sin()],
         })
+    }
+
+    /// A cylinder whose bounding box reaches past `f64::MAX` (as a mutated packing can give)
+    /// is refused as malformed, with a verdict: the cell grid's width search once never
+    /// ended on its infinite extent.
+    #[test]
+    fn a_cylinder_reaching_past_the_largest_number_gets_a_verdict() {
+        let container = ContainerRecord::Cylinder {
+            base_center: [1.7e308, 0.0, 0.0],
+            radius: 1e307,
+            height: 10.0,
+        };
+        let particles = [[1.7e308, 0.0, 2.0], [1.7e308, 3.0, 2.0]]
+            .map(|center| {
+                ParticleRecord::Sphere(SphereRecord {
+                    center,
+                    radius: 1.0,
+                })
+            })
+            .to_vec();
+        let packing = Packing::new(container, particles);
+        assert!(packing.check().is_err());
+        let report = verify(&packing);
+        assert!(!report.ok());
+        assert_eq!(report.particles, 2);
     }
 
     fn periodic_box(len: [f64; 3]) -> ContainerRecord {

@@ -89,6 +89,21 @@ impl ContainerRecord {
                         ));
                     }
                 }
+                // Its bounding box must not reach past the largest finite number either
+                // (every cell count of the checks would be infinite).
+                let reach = [
+                    base_center[0] - radius,
+                    base_center[0] + radius,
+                    base_center[1] - radius,
+                    base_center[1] + radius,
+                    base_center[2] + height,
+                ];
+                if reach.iter().any(|x| !x.is_finite()) {
+                    return Err(format!(
+                        "container.base_center = {base_center:?} with radius {radius} and                          height {height} reaches beyond ±{:e} (a cylinder of finite extent)",
+                        f64::MAX
+                    ));
+                }
                 Ok(())
             }
         }
