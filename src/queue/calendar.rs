@@ -15,8 +15,8 @@
 //!   - the **run**: the current bucket's entries as the bucket was taken, sorted once by
 //!     `(time, key)`, earliest last, so that the bucket's events pop in order at the cost of
 //!     one comparison each, where a binary heap would sift each pop down its levels (at 10⁴
-//!     particles a bucket holds some 13 entries when taken, and the heap's sifting was 5 %
-//!     of the run time, most of it on mispredicted comparisons). An entry that leaves the run
+//!     particles a bucket holds some 13 entries when taken, and the heap's sifting took 5 %
+//!     of the run time, its samples on the comparisons' branches). An entry that leaves the run
 //!     early (its key is scheduled elsewhere or cancelled) stays behind, stale, until it
 //!     reaches the end, where its key's place (no longer `Run`) gives it away;
 //!   - the **heap**: a small indexed binary heap ordered by `(time, key)` for the entries
@@ -61,9 +61,10 @@
 //!
 //! With the times spread over the calendar so that a bucket holds `O(1)` entries, `schedule`,
 //! `cancel`, `peek` and `pop` take amortized `O(1)` time: a pop scans on average `O(1)` empty
-//! buckets, and a rebuild is paid for by the operations since the last one. In the worst
-//! case (all times clustered in one bucket) the queue degrades to the `O(log n)` of the
-//! binary heap. Memory is `O(capacity + nb)`.
+//! buckets, a taken bucket's `O(1)` entries are sorted once, and a rebuild is paid for by the
+//! operations since the last one. In the worst case (all times clustered in one bucket) the
+//! queue degrades to `O(log n)` per operation: the run is sorted once in `O(n log n)` and
+//! the heap takes `O(log n)`. Memory is `O(capacity + nb)`.
 
 use super::{EventQueue, UPCOMING};
 use crate::prefetch;
