@@ -196,6 +196,23 @@ fn order(time: f64, k: u32) -> u128 {
     u128::from(ordered) << 32 | u128::from(k)
 }
 
+/// Empties the list of bucket `b` (`heads[b]`, threaded through `keys`), calling `f` with each
+/// key and its record in list order; `f` must leave the links alone.
+#[inline]
+fn drain_list(
+    heads: &mut [u32],
+    keys: &mut [KeyRecord],
+    b: usize,
+    mut f: impl FnMut(u32, &mut KeyRecord),
+) {
+    let mut k = std::mem::replace(&mut heads[b], NIL);
+    while k != NIL {
+        let record = &mut keys[k as usize];
+        f(k, record);
+        k = record.link[1];
+    }
+}
+
 impl CalendarQueue {
     /// Bucket of time `t`: `0..nb` inside the calendar, `nb` beyond it. Earlier than bucket 0
     /// maps to 0. Non-decreasing in `t` under `f64::total_cmp` (NaNs, which the kernel never
@@ -452,13 +469,11 @@ impl CalendarQueue {
             }
             self.cur = b;
             // The run is empty here (its stale entries were dropped above).
-            let mut k = std::mem::replace(&mut self.heads[b], NIL);
-            while k != NIL {
-                let record = &mut self.keys[k as usize];
+            let run = &mut self.run;
+            drain_list(&mut self.heads, &mut self.keys, b, |k, record| {
                 record.place = Place::Run;
-                self.run.push(order(record.time, k));
-                k = record.link[1];
-            }
+                run.push(order(record.time, k));
+            });
             self.run_live = self.run.len();
             self.run.sort_unstable_by(|x, y| y.cmp(x));
             self.read_ahead = self.heads[b + 1..]
@@ -515,11 +530,7 @@ impl CalendarQueue {
     /// Appends the keys of bucket `b` to `out` and empties the bucket (their places are left
     /// to the caller).
     fn take_bucket(&mut self, b: usize, out: &mut Vec<u32>) {
-        let mut k = std::mem::replace(&mut self.heads[b], NIL);
-        while k != NIL {
-            out.push(k);
-            k = self.keys[k as usize].link[1];
-        }
+        drain_list(&mut self.heads, &mut self.keys, b, |k, _| out.push(k));
     }
 
     /// Converts a key to its stored form, growing the per-key arrays when needed.
