@@ -1397,7 +1397,14 @@ mod tests {
             })
             .to_vec();
         let packing = Packing::new(container, particles);
-        assert!(packing.check().is_err());
+        let refusal = packing.check().unwrap_err();
+        assert!(
+            refusal.starts_with(
+                "container.base_center = [1.7e308, 0.0, 0.0] with radius 1e307 and height 10.0 \
+                 reaches beyond ±1.7976931348623157e308"
+            ),
+            "{refusal}"
+        );
         let report = verify(&packing);
         assert!(!report.ok());
         assert_eq!(report.particles, 2);

@@ -100,7 +100,8 @@ impl ContainerRecord {
                 ];
                 if reach.iter().any(|x| !x.is_finite()) {
                     return Err(format!(
-                        "container.base_center = {base_center:?} with radius {radius} and                          height {height} reaches beyond ±{:e} (a cylinder of finite extent)",
+                        "container.base_center = {base_center:?} with radius {radius:?} and height \
+                         {height:?} reaches beyond ±{:e} (a cylinder of finite extent)",
                         f64::MAX
                     ));
                 }
