@@ -1396,13 +1396,13 @@ mod tests {
     /// A pair event is kept while its partner's flight is the one it was predicted from:
     /// after every few hundred events of a growing φ ≈ 0.3 packing, every pair event that
     /// the event numbers call valid is a contact of the two particles' current flights (its
-    /// time solved again here from their states, Eq. 22 in closed form), and the numbers
+    /// time solved again here from their states, Eq. 22 in closed form, without the
+    /// kernel's solver), and the numbers
     /// call some stale (so both sides of the check are exercised).
     #[test]
     fn a_pair_event_stays_valid_exactly_while_its_partner_keeps_its_flight() {
         use super::{EventBudget, EventKind};
         use crate::boundary::Boundary;
-        use crate::shape::predict_sphere_sphere;
         let mut k = growing_spheres(400, 0.02, 11);
         let (mut valid, mut stale) = (0, 0);
         for _ in 0..6 {
@@ -1444,8 +1444,16 @@ mod tests {
                     let sigma = pi.shape.radius(t) + pj.shape.radius(t);
                     let growth = pi.shape.g + pj.shape.g;
                     let dv = pi.vel - pj.vel;
-                    let tau = predict_sphere_sphere(sigma, growth, &dr, &dv, k.barrier_time - t);
-                    let again = tau.map(|tau| t + tau);
+                    // |dr + dv τ| = σ + G τ: a τ² + 2 b τ + c = 0; the pair is apart
+                    // (c > 0), and its first root is (−b − √(b² − ac)) / a for either sign
+                    // of a whenever it is a contact ahead.
+                    let a = dv.norm_squared() - growth * growth;
+                    let b = dr.dot(&dv) - sigma * growth;
+                    let c = dr.norm_squared() - sigma * sigma;
+                    let disc = b * b - a * c;
+                    let tau = (-b - disc.max(0.0).sqrt()) / a;
+                    let meets = c > 0.0 && disc >= 0.0 && tau >= 0.0 && (b < 0.0 || a < 0.0);
+                    let again = meets.then_some(t + tau);
                     assert!(
                         again.is_some_and(|again| (again - e.time).abs() < 1e-6),
                         "({i}, {j}) kept at {} but its flights meet at {again:?}",
