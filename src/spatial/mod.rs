@@ -18,10 +18,15 @@
 //! bodies (one or two in a dense packing), so the walk costs about what a `prev` link would,
 //! without its 4 bytes per body (BENCHMARKS.md, "Memory").
 
+use crate::prefetch;
 use crate::shape::Vec3;
 use smallvec::SmallVec;
 
 const NONE: u32 = u32::MAX;
+
+/// Cells whose first members [`CellGrid::for_each_within`] gathers before walking their
+/// lists: a neighbour-list update of equal spheres visits some 20 cells.
+const GATHER: usize = 32;
 
 /// The cells of one level.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
@@ -252,12 +257,29 @@ impl CellGrid {
     /// Calls `f` with every body registered at `level` in a cell within `reach` of `p` (a
     /// superset of the bodies whose registered point is within `reach`).
     #[inline]
-    pub fn for_each_within(&self, level: usize, p: &Vec3, reach: f64, mut f: impl FnMut(usize)) {
+    pub fn for_each_within<F: FnMut(usize)>(&self, level: usize, p: &Vec3, reach: f64, mut f: F) {
         let lv = &self.levels[level];
         // Widened by 1e-9 so that rounding never drops a cell that holds a body in reach.
         let limit = (reach * (1.0 + 1e-9)).powi(2);
         let along = |k: usize| self.axis_cells(lv, k, p[k], reach);
         let (xs, ys, zs) = (along(0), along(1), along(2));
+        // The cells' first members are gathered, up to `GATHER` cells at a time, before their
+        // lists are walked: the loads of the cells' heads and of their first members' links
+        // then overlap, where a walk cell by cell waits for each head and link in turn behind
+        // the mispredicted end of the list before (at 10⁶ bodies both arrays are out of
+        // cache). The members come in the same order.
+        let mut heads = [NONE; GATHER];
+        let mut gathered = 0;
+        let last = self.next.len().saturating_sub(1);
+        let walk = |heads: &[u32], f: &mut F| {
+            for &head in heads {
+                let mut i = head;
+                while i != NONE {
+                    f(i as usize);
+                    i = self.next[i as usize];
+                }
+            }
+        };
         // The block of cells, z outermost; corners beyond `reach` skipped by their summed gaps.
         for &(z, gz) in &zs {
             for &(y, gy) in &ys {
@@ -270,12 +292,21 @@ impl CellGrid {
                     if gyz + gx > limit {
                         continue;
                     }
-                    for i in self.members(row + x) {
-                        f(i);
+                    let head = self.head[(row + x) as usize];
+                    // An empty cell asks for the last link instead: no branch on the load.
+                    if let Some(link) = self.next.get((head as usize).min(last)) {
+                        prefetch(link);
+                    }
+                    heads[gathered] = head;
+                    gathered += 1;
+                    if gathered == GATHER {
+                        walk(&heads, &mut f);
+                        gathered = 0;
                     }
                 }
             }
         }
+        walk(&heads[..gathered], &mut f);
     }
 
     /// The cells of `lv` along axis `k` that overlap `[x − reach, x + reach]`, wrapped on a
@@ -537,7 +568,18 @@ mod tests {
                 let q = point(&mut rng);
                 let reach = rng.gen_range(0.05..3.0);
                 let mut found = vec![false; points.len()];
-                g.for_each_within(0, &q, reach, |i| found[i] = true);
+                let mut reported = Vec::new();
+                g.for_each_within(0, &q, reach, |i| {
+                    assert!(!found[i], "body {i} reported twice");
+                    found[i] = true;
+                    reported.push(i);
+                });
+                // Each cell's members come together and in their list's order (a block of
+                // over `GATHER` cells is walked in parts).
+                for run in reported.chunk_by(|&a, &b| g.cell_of(a) == g.cell_of(b)) {
+                    let members: Vec<usize> = g.members(g.cell_of(run[0])).collect();
+                    assert_eq!(run, &members[..]);
+                }
                 for (i, p) in points.iter().enumerate() {
                     let mut d = p - q;
                     for k in 0..3 {
