@@ -172,28 +172,11 @@ impl LocalLists {
         }
     }
 
-    /// A copy of list `i`.
-    #[inline]
-    pub(super) fn get(&self, i: usize) -> LocalList {
-        LocalList {
-            events: self.events[i].0,
-            truncated: self.truncated[i],
-        }
-    }
-
     /// Stores `list` as list `i`.
     #[inline]
     pub(super) fn set(&mut self, i: usize, list: LocalList) {
         self.events[i] = Slots(list.events);
         self.truncated[i] = list.truncated;
-    }
-
-    /// Adds an event to list `i` ([`LocalList::push`]).
-    #[inline]
-    pub(super) fn push(&mut self, i: usize, event: LocalEvent) {
-        let mut list = self.get(i);
-        list.push(event);
-        self.set(i, list);
     }
 
     /// Index and copy of the earliest event of list `i` ([`LocalList::earliest`]).

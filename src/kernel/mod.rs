@@ -671,16 +671,25 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         }
         for i in 0..n {
             self.prefetch_partners(i);
-            self.predict_pairs(i, Partners::Above);
-            self.predict_own(i);
+            self.predict(i, Partners::Above);
             self.reschedule(i);
         }
         self.virial = 0.0;
         self.kinetic_start = self.kinetic_twice();
     }
 
-    /// Predicts collisions of particle `i` with its neighbours into a fresh local list, which
-    /// replaces `i`'s (every caller predicts `i` afresh; [`Self::predict_own`] adds to it).
+    /// Predicts all of `i`'s events into a fresh local list, which replaces `i`'s: its
+    /// collisions with `partners` ([`Self::predict_pairs`]), then its wall contact and its
+    /// list update ([`Self::predict_own`]). The list is built as a value and stored once.
+    #[inline]
+    fn predict(&mut self, i: usize, partners: Partners) {
+        let mut list = self.predict_pairs(i, partners);
+        self.predict_own(i, &mut list);
+        self.local.set(i, list);
+    }
+
+    /// Predicts collisions of particle `i` with its neighbours into a fresh local list for
+    /// [`Self::predict`].
     ///
     /// The hot loop of the kernel (tens of predictions per collision), in three passes:
     /// 1. a screen ([`PairScreen::may_collide`]) marks the neighbours that may meet `i`
@@ -706,20 +715,20 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     ///
     /// The caller has asked for the partners' states first ([`Self::prefetch_partners`]).
     #[inline]
-    fn predict_pairs(&mut self, i: usize, partners: Partners) {
+    fn predict_pairs(&mut self, i: usize, partners: Partners) -> LocalList {
         // One pass for intervals with growth and one without, each compiled with its own
         // screen (a flag asked in each step would cost more than the second copy of the
         // code).
         if self.grows {
-            self.predict_pairs_as::<true>(i, partners);
+            self.predict_pairs_as::<true>(i, partners)
         } else {
-            self.predict_pairs_as::<false>(i, partners);
+            self.predict_pairs_as::<false>(i, partners)
         }
     }
 
     /// [`Self::predict_pairs`] in an interval where particles grow (`GROWS`) or do not.
     #[inline]
-    fn predict_pairs_as<const GROWS: bool>(&mut self, i: usize, partners: Partners) {
+    fn predict_pairs_as<const GROWS: bool>(&mut self, i: usize, partners: Partners) -> LocalList {
         let t = self.time;
         let max_tau = self.barrier_time - t;
         let pi = &self.particles[i];
@@ -881,10 +890,10 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         if truncated {
             list.mark_truncated();
         }
-        self.local.set(i, list);
         self.pair_times = found;
         self.screened = screened;
         self.scratch = above;
+        list
     }
 
     /// Asks the memory system for the state of every partner of `i` before a prediction
@@ -903,9 +912,10 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         }
     }
 
-    /// Predicts the wall contact and the neighbour-list update of particle `i`.
+    /// Predicts the wall contact and the neighbour-list update of particle `i` into its new
+    /// local `list`.
     #[inline]
-    fn predict_own(&mut self, i: usize) {
+    fn predict_own(&self, i: usize, list: &mut LocalList) {
         let t = self.time;
         let max_tau = self.barrier_time - t;
         let p = &self.particles[i];
@@ -919,8 +929,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
                 walls.predict_wall(&pos, &p.vel, r, g, max_tau)
             };
             if let Some((tau, wall)) = contact {
-                self.local
-                    .push(i, LocalEvent::new(t + tau, EventKind::Wall(wall)));
+                list.push(LocalEvent::new(t + tau, EventKind::Wall(wall)));
             }
         }
         // A recorded envelope exit (refreshed before every prediction pass of `i`,
@@ -939,8 +948,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
             }
         });
         if let Some(tau) = exit.filter(|&tau| tau <= max_tau) {
-            self.local
-                .push(i, LocalEvent::new(t + tau, EventKind::NeighbourList));
+            list.push(LocalEvent::new(t + tau, EventKind::NeighbourList));
         }
     }
 
@@ -1114,10 +1122,8 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
         if !partners_requested {
             self.prefetch_partners(i);
         }
-        self.predict_pairs(i, Partners::All);
-        self.predict_own(i);
-        self.predict_pairs(j, Partners::AllBut(i));
-        self.predict_own(j);
+        self.predict(i, Partners::All);
+        self.predict(j, Partners::AllBut(i));
         self.reschedule(i);
         self.reschedule(j);
         self.counters.collisions += 1;
@@ -1159,8 +1165,7 @@ impl<S: Collidable, B: Boundary, Q: EventQueue> Edmd<S, B, Q> {
     fn predict_afresh(&mut self, i: usize) {
         self.refresh_list_exit(i);
         self.prefetch_partners(i);
-        self.predict_pairs(i, Partners::All);
-        self.predict_own(i);
+        self.predict(i, Partners::All);
     }
 
     /// Resolves the contact of `i` with its own image `entry`
@@ -1517,7 +1522,8 @@ mod tests {
             listed.len()
         );
         k.refresh_list_exit(big);
-        k.predict_pairs(big, Partners::All);
+        let list = k.predict_pairs(big, Partners::All);
+        k.local.set(big, list);
         // Contact times in closed form: the smaller root of
         // (dv² − ġ²)τ² + 2(dr·dv − σġ)τ + (dr² − σ²) = 0 in [0, interval].
         let pb = &k.particles[big];
