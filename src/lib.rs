@@ -107,11 +107,12 @@ pub mod verify;
 /// Hints the processor to load the cache lines of `value` (a no-op where there is no
 /// prefetch instruction). Written here: no maintained crate offers a portable prefetch.
 ///
-/// One hint per 64 bytes from the start, plus one for the last byte unless `T` is aligned
-/// to whole lines: a value that does not start on a line boundary touches one line more
-/// than its size suggests. The count is a compile-time constant, so the hints unroll
-/// without a branch (counting the lines the address actually touches costs a
-/// data-dependent loop per partner).
+/// One hint per 64 bytes from the start, plus one for the last byte unless no value of `T`
+/// can straddle a line: a value that does not start on a line boundary touches one line
+/// more than its size suggests, except when its alignment divides 64 and its size is at
+/// most its alignment (a 32-byte record aligned to 32 lies in one line). The count is a
+/// compile-time constant, so the hints unroll without a branch (counting the lines the
+/// address actually touches costs a data-dependent loop per partner).
 #[inline(always)]
 pub(crate) fn prefetch<T>(value: &T) {
     #[cfg(target_arch = "x86_64")]
@@ -125,7 +126,9 @@ pub(crate) fn prefetch<T>(value: &T) {
             unsafe { _mm_prefetch::<_MM_HINT_T0>(start.wrapping_add(offset)) };
             offset += 64;
         }
-        if !std::mem::align_of::<T>().is_multiple_of(64) {
+        let align = std::mem::align_of::<T>();
+        let within_a_line = 64 % align == 0 && size <= align;
+        if !align.is_multiple_of(64) && !within_a_line {
             let last = start.wrapping_add(size.saturating_sub(1));
             // SAFETY: as above.
             unsafe { _mm_prefetch::<_MM_HINT_T0>(last) };
