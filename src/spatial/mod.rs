@@ -272,12 +272,12 @@ impl CellGrid {
         let mut gathered = 0;
         let last = self.next.len().saturating_sub(1);
         let walk = |heads: &[u32], f: &mut F| {
-            for &head in heads {
-                let mut i = head;
-                while i != NONE {
-                    f(i as usize);
-                    i = self.next[i as usize];
+            for &cur in heads {
+                Members {
+                    next: &self.next,
+                    cur,
                 }
+                .for_each(&mut *f);
             }
         };
         // The block of cells, z outermost; corners beyond `reach` skipped by their summed gaps.
