@@ -127,8 +127,8 @@ pub(crate) fn prefetch<T>(value: &T) {
             offset += 64;
         }
         let align = std::mem::align_of::<T>();
-        let within_a_line = 64 % align == 0 && size <= align;
-        if !align.is_multiple_of(64) && !within_a_line {
+        let may_straddle = !(align.is_multiple_of(64) || (64 % align == 0 && size <= align));
+        if may_straddle {
             let last = start.wrapping_add(size.saturating_sub(1));
             // SAFETY: as above.
             unsafe { _mm_prefetch::<_MM_HINT_T0>(last) };

@@ -1402,8 +1402,8 @@ mod tests {
     /// after every few hundred events of a growing φ ≈ 0.3 packing, every pair event that
     /// the event numbers call valid is a contact of the two particles' current flights (its
     /// time solved again here from their states, Eq. 22 in closed form, without the
-    /// kernel's solver), and the numbers
-    /// call some stale (so both sides of the check are exercised).
+    /// kernel's solver), and the numbers call some stale (so both sides of the check are
+    /// exercised).
     #[test]
     fn a_pair_event_stays_valid_exactly_while_its_partner_keeps_its_flight() {
         use super::{EventBudget, EventKind};
