@@ -230,6 +230,17 @@ struct Layout {
     cells: usize,
 }
 
+/// The 27 cells around cell `c` (numbered `(x·cells + y)·cells + z`) of a periodic grid
+/// of `cells`³ cells.
+fn neighbourhood(cells: usize, c: usize) -> impl Iterator<Item = usize> {
+    let home = [c / (cells * cells), c / cells % cells, c % cells];
+    (0..27).map(move |d| {
+        let shift = [d / 9, d / 3 % 3, d % 3];
+        let other = [0, 1, 2].map(|k| (home[k] + cells + shift[k] - 1) % cells);
+        (other[0] * cells + other[1]) * cells + other[2]
+    })
+}
+
 fn morton(c: [usize; 3]) -> u64 {
     let spread = |v: usize| (0..21).fold(0u64, |acc, b| acc | (((v as u64 >> b) & 1) << (3 * b)));
     spread(c[0]) | spread(c[1]) << 1 | spread(c[2]) << 2
@@ -253,11 +264,8 @@ impl Layout {
         }
         let mut neighbours = vec![List::default(); n];
         for (i, p) in points.iter().enumerate() {
-            let c = cell(p);
-            for d in 0..27 {
-                let shift = [d / 9, d / 3 % 3, d % 3];
-                let other = [0, 1, 2].map(|k| (c[k] + cells + shift[k] - 1) % cells);
-                for &j in &members[flat(other)] {
+            for other in neighbourhood(cells, flat(cell(p))) {
+                for &j in &members[other] {
                     let q = &points[j as usize];
                     let d2: f64 = (0..3)
                         .map(|k| {
@@ -366,14 +374,7 @@ impl<T: State> Scene<T> {
 
     /// The 27 grid cells around particle `i`'s cell.
     fn cells_around(&self, i: usize) -> impl Iterator<Item = usize> {
-        let cells = self.cells;
-        let c = self.cell_of[i] as usize;
-        let home = [c / (cells * cells), c / cells % cells, c % cells];
-        (0..27).map(move |d| {
-            let shift = [d / 9, d / 3 % 3, d % 3];
-            let other = [0, 1, 2].map(|k| (home[k] + cells + shift[k] - 1) % cells);
-            (other[0] * cells + other[1]) * cells + other[2]
-        })
+        neighbourhood(self.cells, self.cell_of[i] as usize)
     }
 
     /// The grid walk of a list update, as the kernel's: the members of the 27 cells around
@@ -534,6 +535,7 @@ fn main() {
     let depth = option(&args, "--depth", 1);
     let count = option(&args, "--events", 4_000_000);
     let rounds = option(&args, "--rounds", 3);
+    assert!(rounds >= 1, "--rounds takes a whole number of at least 1");
     let all = Pattern {
         name: "the kernel's whole pattern",
         list_updates: true,
