@@ -514,15 +514,15 @@ fn pops(layout: &Layout, count: usize, draw: &mut Xoshiro256PlusPlus) -> Vec<Pop
         .collect()
 }
 
+/// The whole number after `name` in `args`, `default` when `name` is absent. Other
+/// arguments are left alone: `cargo bench` passes its own `--bench`.
 fn option(args: &[String], name: &str, default: usize) -> usize {
-    args.iter()
-        .position(|a| a == name)
-        .and_then(|k| args.get(k + 1))
-        .map(|v| {
-            v.parse()
-                .unwrap_or_else(|_| panic!("{name} takes a whole number"))
-        })
-        .unwrap_or(default)
+    let Some(k) = args.iter().position(|a| a == name) else {
+        return default;
+    };
+    args.get(k + 1)
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("{name} takes a whole number"))
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
